@@ -1,0 +1,62 @@
+//! The library's error type. Every error that can come from user input names where it came from:
+//! the file, the key (as a dotted path such as `shapes[2].radius`) and, where known, the line.
+
+use std::path::PathBuf;
+
+/// Errors returned by haze's library API.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The scene file is not valid TOML or does not match the scene format.
+    #[error("{path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Parse {
+        /// The scene file.
+        path: PathBuf,
+        /// 1-based line of the offending text, when known.
+        line: Option<usize>,
+        /// What is wrong, naming the key.
+        message: String,
+    },
+    /// The scene file parses but describes something impossible.
+    #[error("{path}{}: {key}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Invalid {
+        /// The scene file (empty for scenes built in code).
+        path: PathBuf,
+        /// 1-based line of the table holding the key, when known.
+        line: Option<usize>,
+        /// Dotted path of the offending key, e.g. `shapes[1].material`.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A mesh file (Wavefront OBJ) could not be loaded.
+    #[error("{path}: {message}")]
+    Mesh {
+        /// The mesh file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A render or output setting is impossible.
+    #[error("{0}")]
+    Settings(String),
+    /// Writing an image failed.
+    #[error("{path}: {message}")]
+    Output {
+        /// The image file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Result type of the library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,4 @@
+//! Integrators: the progressive photon mapping loop and its camera pass.
+
+pub mod camera;
+pub mod ppm;

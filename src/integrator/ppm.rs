@@ -1,0 +1,121 @@
+//! Probabilistic progressive photon mapping (Knaus & Zwicker 2011): iteration i is an ordinary
+//! photon-mapping render with radius r_i from the schedule of [`crate::estimate::radius`]; the
+//! image is the mean of the iterations. Each iteration traces a fresh set of photons, rebuilds the
+//! photon map into the buffers of the previous one (memory stays constant) and renders one
+//! jittered eye path per pixel.
+
+use super::camera::{CameraPass, render_pass};
+use crate::error::{Error, Result};
+use crate::estimate::radius::radius;
+use crate::estimate::surface::Gather;
+use crate::film::Film;
+use crate::math::Rgb;
+use crate::output::{Image, RenderInfo};
+use crate::photon::map::PhotonGrid;
+use crate::photon::trace::{LightSampler, PhotonPass, trace_photons};
+use crate::progress::{Progress, Status};
+use crate::scene::Scene;
+use crate::settings::{Radius, RenderSettings};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
+
+/// Initial surface radius of `settings` in `scene`'s units.
+pub fn initial_radius(scene: &Scene, settings: &RenderSettings) -> f64 {
+    match settings.radius {
+        Radius::Absolute(r) => r,
+        Radius::Fraction(f) => f * scene.diagonal() as f64,
+    }
+}
+
+/// Renders `scene` with `settings`, reporting to `progress` after every iteration, until the
+/// iteration count or time limit is reached or `stop` is raised. An iteration interrupted by
+/// `stop` is discarded; every finished one is in the returned image.
+pub fn render(
+    scene: &Scene,
+    settings: &RenderSettings,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<Image> {
+    settings
+        .validate()
+        .map_err(|e| Error::Settings(format!("{}: {}", e.key, e.message)))?;
+    let start = Instant::now();
+    let [width, height] = scene.camera.resolution;
+    let r1 = initial_radius(scene, settings);
+    let lights = LightSampler::new(scene);
+    let mut film = Film::new(width, height);
+    let mut photons = Vec::new();
+    let mut map = PhotonGrid::new();
+    let mut image = vec![Rgb::ZERO; (width * height) as usize];
+    let nonfinite = AtomicU64::new(0);
+    let mut light_paths = 0u64;
+    let mut last_radius = r1;
+    let mut iteration = 0u64;
+    loop {
+        if settings.iterations.is_some_and(|n| iteration >= n)
+            || settings
+                .time_limit
+                .is_some_and(|t| start.elapsed().as_secs_f64() >= t)
+            || stop.load(Ordering::Relaxed)
+        {
+            break;
+        }
+        let i = iteration + 1;
+        let r = radius(i, r1, settings.alpha, 2);
+        let t0 = Instant::now();
+        let pass = PhotonPass {
+            seed: settings.seed,
+            iteration: i,
+            paths: settings.photons,
+            max_depth: settings.max_depth,
+        };
+        if !trace_photons(scene, &lights, &pass, stop, &mut photons) {
+            break;
+        }
+        map.build(&photons, r as f32);
+        let t1 = Instant::now();
+        let camera = CameraPass {
+            seed: settings.seed,
+            iteration: i,
+            max_depth: settings.max_depth,
+            gather: Gather {
+                radius: r as f32,
+                kernel: settings.kernel,
+                inv_paths: 1.0 / settings.photons as f32,
+            },
+        };
+        if !render_pass(scene, &map, &camera, stop, &nonfinite, &mut image) {
+            break;
+        }
+        let t2 = Instant::now();
+        film.add(&image);
+        iteration = i;
+        light_paths += settings.photons;
+        last_radius = r;
+        progress.iteration(&Status {
+            iteration,
+            target_iterations: settings.iterations,
+            time_limit: settings.time_limit,
+            elapsed: start.elapsed().as_secs_f64(),
+            radius: r,
+            light_paths,
+            photons_stored: photons.len() as u64,
+            photon_seconds: (t1 - t0).as_secs_f64(),
+            camera_seconds: (t2 - t1).as_secs_f64(),
+            film: &film,
+        });
+    }
+    let info = RenderInfo {
+        iterations: iteration,
+        light_paths,
+        initial_radius: r1,
+        radius: last_radius,
+        alpha: settings.alpha,
+        kernel: settings.kernel,
+        seed: settings.seed,
+        elapsed: start.elapsed().as_secs_f64(),
+        scene: scene.source.clone(),
+        nonfinite_samples: nonfinite.load(Ordering::Relaxed),
+    };
+    Ok(Image::from_film(&film, info))
+}

@@ -1,0 +1,46 @@
+//! # haze
+//!
+//! A progressive photon mapper for participating media, built on probabilistic progressive photon
+//! mapping (Knaus & Zwicker, "Progressive Photon Mapping: A Probabilistic Approach", ACM TOG 30(3),
+//! 2011): every iteration is an ordinary photon-mapping render whose radius depends only on the
+//! iteration number, and the image is the mean of the iterations.
+//!
+//! The data flow mirrors the modules: a [`scene::Scene`] (loaded from TOML or built with
+//! [`scene::SceneBuilder`]) → per iteration a photon pass ([`photon`]) and a photon map → a camera
+//! pass ([`integrator::camera`]) with the radiance estimates of [`estimate`] → a [`film::Film`]
+//! holding the running mean → an [`output::Image`] written as OpenEXR and PNG.
+//!
+//! ```no_run
+//! use haze::{Scene, render, progress::Status};
+//! use std::sync::atomic::AtomicBool;
+//!
+//! let scene = Scene::load("scenes/cornell-box.toml")?;
+//! let mut settings = scene.settings.clone();
+//! settings.iterations = Some(16);
+//! let stop = AtomicBool::new(false);
+//! let mut on_iteration = |s: &Status| eprintln!("iteration {} r = {:.4}", s.iteration, s.radius);
+//! let image = render(&scene, &settings, &mut on_iteration, &stop)?;
+//! image.write("cornell.exr".as_ref(), 1.0)?;
+//! # Ok::<(), haze::Error>(())
+//! ```
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod accel;
+pub mod error;
+pub mod estimate;
+pub mod film;
+pub mod integrator;
+pub mod math;
+pub mod output;
+pub mod photon;
+pub mod progress;
+pub mod rng;
+pub mod scene;
+pub mod settings;
+
+pub use error::{Error, Result};
+pub use integrator::ppm::render;
+pub use output::{Image, RenderInfo};
+pub use scene::Scene;
+pub use settings::RenderSettings;

@@ -1,0 +1,386 @@
+//! The `haze` command line: render scenes, benchmark the passes.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use haze::estimate::kernel::Kernel;
+use haze::progress::Status;
+use haze::settings::{Radius, RenderSettings};
+use haze::{Image, Scene};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// haze: a progressive photon mapper for participating media.
+#[derive(Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file to OpenEXR (plus a PNG preview beside it).
+    Render(RenderArgs),
+    /// Measure photon-pass and camera-pass throughput on a scene.
+    Bench(BenchArgs),
+}
+
+/// Options that override the scene file's [render] table.
+#[derive(Args, Clone)]
+struct Overrides {
+    /// Number of iterations (photon-mapping passes) to average.
+    #[arg(short = 'n', long, value_name = "N")]
+    iterations: Option<u64>,
+    /// Time budget, e.g. 90, 90s, 1.5m, 1h; the render stops at N iterations or this, whichever first.
+    #[arg(short = 't', long, value_name = "DURATION", value_parser = parse_duration)]
+    time: Option<f64>,
+    /// Light paths emitted per iteration.
+    #[arg(short = 'p', long, value_name = "N")]
+    photons: Option<u64>,
+    /// Radius reduction α in (0, 1): r²(i+1)/r²(i) = (i+α)/(i+1).
+    #[arg(short = 'a', long, value_name = "A")]
+    alpha: Option<f64>,
+    /// Initial gathering radius in scene units.
+    #[arg(
+        short = 'r',
+        long,
+        value_name = "R",
+        conflicts_with = "radius_fraction"
+    )]
+    radius: Option<f64>,
+    /// Initial gathering radius as a fraction of the scene's bounding-box diagonal.
+    #[arg(long, value_name = "F")]
+    radius_fraction: Option<f64>,
+    /// Density-estimation kernel: constant, epanechnikov or biweight.
+    #[arg(short = 'k', long, value_name = "KERNEL", value_parser = parse_kernel)]
+    kernel: Option<Kernel>,
+    /// Maximum scattering events on light and eye paths.
+    #[arg(long, value_name = "D")]
+    max_depth: Option<u32>,
+    /// Random seed; the same scene, seed and iteration count give the same image.
+    #[arg(short = 's', long, value_name = "S")]
+    seed: Option<u64>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(short = 'j', long, value_name = "T")]
+    threads: Option<usize>,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Scene file (TOML; see docs/scene-format.md).
+    scene: PathBuf,
+    /// Output OpenEXR file; the PNG preview is written beside it [default: SCENE-NAME.exr].
+    #[arg(short = 'o', long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    overrides: Overrides,
+    /// Write the image so far every this often (e.g. 30s) to the output files.
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    snapshot_every: Option<f64>,
+    /// Exposure multiplier for the PNG preview (the EXR stays linear and unscaled).
+    #[arg(long, default_value_t = 1.0, value_name = "E")]
+    exposure: f32,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Scene file [default: scenes/cornell-box.toml].
+    scene: Option<PathBuf>,
+    #[command(flatten)]
+    overrides: Overrides,
+}
+
+fn parse_duration(s: &str) -> Result<f64, String> {
+    let s = s.trim();
+    let (num, unit) = match s.find(|c: char| c.is_ascii_alphabetic()) {
+        Some(i) => (&s[..i], &s[i..]),
+        None => (s, "s"),
+    };
+    let scale = match unit {
+        "ms" => 1e-3,
+        "s" => 1.0,
+        "m" | "min" => 60.0,
+        "h" => 3600.0,
+        _ => return Err(format!("unknown unit `{unit}` (use ms, s, m or h)")),
+    };
+    let v: f64 = num
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a duration such as 60s"))?;
+    if !(v.is_finite() && v > 0.0) {
+        return Err(format!("`{s}` must be a positive duration"));
+    }
+    Ok(v * scale)
+}
+
+fn parse_kernel(s: &str) -> Result<Kernel, String> {
+    s.parse()
+}
+
+/// The scene's settings with the command-line overrides applied and validated.
+fn apply(base: &RenderSettings, o: &Overrides) -> Result<RenderSettings> {
+    let mut s = base.clone();
+    match (o.iterations, o.time) {
+        (Some(n), t) => {
+            s.iterations = Some(n);
+            s.time_limit = t.or(s.time_limit);
+        }
+        (None, Some(t)) => {
+            // A time budget alone means "render until the time is up".
+            s.iterations = None;
+            s.time_limit = Some(t);
+        }
+        (None, None) => {}
+    }
+    s.photons = o.photons.unwrap_or(s.photons);
+    s.alpha = o.alpha.unwrap_or(s.alpha);
+    if let Some(r) = o.radius {
+        s.radius = Radius::Absolute(r);
+    }
+    if let Some(f) = o.radius_fraction {
+        s.radius = Radius::Fraction(f);
+    }
+    s.kernel = o.kernel.unwrap_or(s.kernel);
+    s.max_depth = o.max_depth.unwrap_or(s.max_depth);
+    s.seed = o.seed.unwrap_or(s.seed);
+    if let Err(e) = s.validate() {
+        let flag = match e.key {
+            "iterations" => "--iterations",
+            "time_limit" => "--time",
+            "radius_fraction" => "--radius-fraction",
+            "max_depth" => "--max-depth",
+            k => {
+                return Err(anyhow::anyhow!(
+                    "--{k} (or the scene's render.{k}): {}",
+                    e.message
+                ));
+            }
+        };
+        bail!("{flag} (or the scene's render.{}): {}", e.key, e.message);
+    }
+    if o.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    Ok(s)
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        b = b.num_threads(t);
+    }
+    b.build().context("cannot start worker threads")
+}
+
+fn stop_on_ctrl_c() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    // A second Ctrl-C exits at once.
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    stop
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
+    let settings = apply(&scene.settings, &args.overrides)?;
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        bail!(
+            "--exposure must be a positive number, got {}",
+            args.exposure
+        );
+    }
+    if args.snapshot_every.is_some_and(|s| !s.is_finite()) {
+        bail!("--snapshot-every must be finite");
+    }
+    let output = args.output.clone().unwrap_or_else(|| {
+        PathBuf::from(args.scene.file_stem().unwrap_or("render".as_ref())).with_extension("exr")
+    });
+    if output.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!(
+            "--output {}: the file name must end in .exr",
+            output.display()
+        );
+    }
+    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            bail!(
+                "--output {}: directory {} does not exist",
+                output.display(),
+                dir.display()
+            );
+        }
+    }
+    let pool = thread_pool(args.overrides.threads)?;
+    let stop = stop_on_ctrl_c();
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        progress_bar(&settings)
+    };
+    let mut last_snapshot = Instant::now();
+    let mut snapshot_error = None;
+    let mut on_iteration = |s: &Status| {
+        update_bar(&bar, s);
+        if let Some(every) = args.snapshot_every {
+            if last_snapshot.elapsed().as_secs_f64() >= every {
+                last_snapshot = Instant::now();
+                let info = haze::RenderInfo {
+                    iterations: s.iteration,
+                    light_paths: s.light_paths,
+                    initial_radius: f64::NAN,
+                    radius: s.radius,
+                    alpha: settings.alpha,
+                    kernel: settings.kernel,
+                    seed: settings.seed,
+                    elapsed: s.elapsed,
+                    scene: Some(args.scene.clone()),
+                    nonfinite_samples: 0,
+                };
+                if let Err(e) = Image::from_film(s.film, info).write(&output, args.exposure) {
+                    snapshot_error.get_or_insert(e);
+                }
+            }
+        }
+    };
+    let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, &stop))?;
+    bar.finish_and_clear();
+    if let Some(e) = snapshot_error {
+        eprintln!("warning: a snapshot could not be written: {e}");
+    }
+    if image.info.iterations == 0 {
+        bail!("stopped before the first iteration finished; nothing written");
+    }
+    let png = image.write(&output, args.exposure)?;
+    let i = &image.info;
+    let interrupted = if stop.load(Ordering::Relaxed) {
+        " (interrupted)"
+    } else {
+        ""
+    };
+    eprintln!(
+        "{} iterations{interrupted}, {} light paths, {:.1} s, final radius {:.5}: wrote {} and {}",
+        i.iterations,
+        i.light_paths,
+        i.elapsed,
+        i.radius,
+        output.display(),
+        png.display()
+    );
+    if i.nonfinite_samples > 0 {
+        eprintln!(
+            "warning: {} non-finite samples were replaced by black",
+            i.nonfinite_samples
+        );
+    }
+    Ok(())
+}
+
+fn progress_bar(settings: &RenderSettings) -> ProgressBar {
+    let (len, template) = match settings.iterations {
+        Some(n) => (
+            n,
+            "{elapsed_precise} [{bar:30}] {pos}/{len} it, {per_sec}, ETA {eta} {msg}",
+        ),
+        None => (
+            (settings.time_limit.unwrap_or(1.0) * 1000.0) as u64,
+            "{elapsed_precise} [{bar:30}] time budget, ETA {eta} {msg}",
+        ),
+    };
+    let bar = ProgressBar::new(len);
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+fn update_bar(bar: &ProgressBar, s: &Status) {
+    match s.target_iterations {
+        Some(_) => bar.set_position(s.iteration),
+        None => {
+            bar.set_position((s.elapsed * 1000.0) as u64);
+        }
+    }
+    let rate = s.iteration as f64 / s.elapsed.max(1e-9);
+    bar.set_message(format!(
+        "it {} ({rate:.2} it/s), r = {:.5}",
+        s.iteration, s.radius
+    ));
+}
+
+fn bench(args: BenchArgs) -> Result<()> {
+    let path = args
+        .scene
+        .unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
+    let scene = Scene::load(&path)?;
+    let mut o = args.overrides.clone();
+    o.iterations = o.iterations.or(Some(8));
+    let settings = apply(&scene.settings, &o)?;
+    let pool = thread_pool(o.threads)?;
+    let stop = AtomicBool::new(false);
+    let (mut photon_s, mut camera_s, mut stored) = (0.0, 0.0, 0u64);
+    let mut on_iteration = |s: &Status| {
+        // The first iteration warms caches and the allocator; time the rest.
+        if s.iteration > 1 {
+            photon_s += s.photon_seconds;
+            camera_s += s.camera_seconds;
+            stored += s.photons_stored;
+        }
+    };
+    let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, &stop))?;
+    let timed = image.info.iterations.saturating_sub(1);
+    if timed == 0 {
+        bail!("--iterations must be at least 2 for a benchmark (the first is a warm-up)");
+    }
+    let [w, h] = scene.camera.resolution;
+    let paths = (timed * settings.photons) as f64;
+    let pixels = (timed * w as u64 * h as u64) as f64;
+    println!("scene: {}", path.display());
+    println!(
+        "threads: {}, iterations timed: {timed} (after 1 warm-up), photons/iteration: {}, resolution: {w}x{h}",
+        pool.current_num_threads(),
+        settings.photons
+    );
+    println!("| pass | per second | seconds per iteration |");
+    println!("|---|---|---|");
+    println!(
+        "| photon pass (trace + map build) | {:.0} light paths/s, {:.0} photons stored/s | {:.4} |",
+        paths / photon_s,
+        stored as f64 / photon_s,
+        photon_s / timed as f64
+    );
+    println!(
+        "| camera pass (trace + estimate) | {:.0} camera paths/s | {:.4} |",
+        pixels / camera_s,
+        camera_s / timed as f64
+    );
+    Ok(())
+}
+
+fn run() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Render(a) => render(a),
+        Command::Bench(a) => bench(a),
+    }
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

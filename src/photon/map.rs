@@ -1,0 +1,161 @@
+//! A hashed uniform grid over photon positions for fixed-radius queries, rebuilt every iteration
+//! into buffers it keeps, so memory does not grow over a render.
+//!
+//! The cell size is twice the query radius, so a query ball overlaps at most 2 × 2 × 2 cells.
+//! Cells are hashed into a table of 2ⁿ ≥ 2·(photon count) buckets; photons are counting-sorted
+//! by bucket, which keeps the build O(N) and deterministic (stable in photon order).
+
+use super::Photon;
+use glam::{IVec3, Vec3};
+
+/// The photon grid.
+#[derive(Default)]
+pub struct PhotonGrid {
+    inv_cell: f32,
+    mask: usize,
+    /// start[b]..start[b + 1] indexes `photons` for bucket b.
+    start: Vec<u32>,
+    photons: Vec<Photon>,
+    keys: Vec<u32>,
+}
+
+#[inline]
+fn hash(c: IVec3) -> usize {
+    let h = (c.x as u32).wrapping_mul(73_856_093)
+        ^ (c.y as u32).wrapping_mul(19_349_663)
+        ^ (c.z as u32).wrapping_mul(83_492_791);
+    // One more mixing round: the raw xor of products clusters on regular grids.
+    (h ^ (h >> 15)).wrapping_mul(0x2c1b_3c6d) as usize
+}
+
+impl PhotonGrid {
+    /// An empty grid.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of photons stored.
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    /// True if no photon is stored.
+    pub fn is_empty(&self) -> bool {
+        self.photons.is_empty()
+    }
+
+    /// Rebuilds the grid over `photons` for queries of radius `radius`.
+    pub fn build(&mut self, photons: &[Photon], radius: f32) {
+        let cell = (2.0 * radius).max(1e-20);
+        self.inv_cell = 1.0 / cell;
+        let buckets = (2 * photons.len()).next_power_of_two().max(16);
+        self.mask = buckets - 1;
+        let mut keys = std::mem::take(&mut self.keys);
+        keys.clear();
+        keys.extend(
+            photons
+                .iter()
+                .map(|ph| self.bucket(self.cell_of(ph.p)) as u32),
+        );
+        self.keys = keys;
+        self.start.clear();
+        self.start.resize(buckets + 1, 0);
+        for &k in &self.keys {
+            self.start[k as usize + 1] += 1;
+        }
+        for b in 0..buckets {
+            self.start[b + 1] += self.start[b];
+        }
+        self.photons.clear();
+        self.photons.resize(photons.len(), Photon::default());
+        // Scatter with a moving cursor per bucket (reuse `start` shifted by one slot).
+        let mut cursor = self.start[..buckets].to_vec();
+        for (ph, &k) in photons.iter().zip(&self.keys) {
+            let slot = &mut cursor[k as usize];
+            self.photons[*slot as usize] = *ph;
+            *slot += 1;
+        }
+    }
+
+    #[inline]
+    fn cell_of(&self, p: Vec3) -> IVec3 {
+        (p * self.inv_cell).floor().as_ivec3()
+    }
+
+    #[inline]
+    fn bucket(&self, c: IVec3) -> usize {
+        hash(c) & self.mask
+    }
+
+    /// Calls `f(photon, squared distance)` for every photon within `radius` of `p`. `radius`
+    /// must not exceed the radius the grid was built for.
+    #[inline]
+    pub fn query(&self, p: Vec3, radius: f32, mut f: impl FnMut(&Photon, f32)) {
+        if self.photons.is_empty() {
+            return;
+        }
+        let r2 = radius * radius;
+        // Lower corner of the 2×2×2 block of cells touching the ball.
+        let lo = ((p - Vec3::splat(radius)) * self.inv_cell)
+            .floor()
+            .as_ivec3();
+        let hi = ((p + Vec3::splat(radius)) * self.inv_cell)
+            .floor()
+            .as_ivec3();
+        let mut seen = [usize::MAX; 8];
+        let mut n_seen = 0;
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    let b = self.bucket(IVec3::new(x, y, z));
+                    // Two cells may hash to one bucket: visit each bucket once.
+                    if seen[..n_seen].contains(&b) {
+                        continue;
+                    }
+                    if n_seen < seen.len() {
+                        seen[n_seen] = b;
+                        n_seen += 1;
+                    }
+                    let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
+                    for ph in &self.photons[s..e] {
+                        let d2 = (ph.p - p).length_squared();
+                        if d2 < r2 {
+                            f(ph, d2);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{Purpose, Sampler};
+
+    #[test]
+    fn query_finds_exactly_the_photons_in_the_ball() {
+        let mut s = Sampler::new(1, Purpose::Other, 0, 0);
+        let photons: Vec<Photon> = (0..5000)
+            .map(|_| Photon {
+                p: Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 4.0 - 2.0,
+                ..Default::default()
+            })
+            .collect();
+        let mut grid = PhotonGrid::new();
+        for r in [0.05f32, 0.2, 0.7] {
+            grid.build(&photons, r);
+            for q in 0..50 {
+                let c = photons[q * 7].p + Vec3::new(0.01, -0.02, 0.03);
+                let mut found = 0;
+                grid.query(c, r, |_, _| found += 1);
+                let want = photons
+                    .iter()
+                    .filter(|ph| (ph.p - c).length_squared() < r * r)
+                    .count();
+                assert_eq!(found, want, "r={r} q={q}");
+            }
+        }
+    }
+}

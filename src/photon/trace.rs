@@ -1,0 +1,163 @@
+//! The photon pass: light paths from the lights, through specular and diffuse bounces, leaving
+//! photons on diffuse surfaces.
+//!
+//! Paths are traced in parallel in fixed chunks; each path draws from its own random stream
+//! (seed, iteration, path index), and chunks are concatenated in order, so the photon list is the
+//! same whatever the thread count.
+
+use super::Photon;
+use crate::math::{Rgb, luminance, offset_origin};
+use crate::rng::{Purpose, Sampler};
+use crate::scene::Scene;
+use crate::scene::material::Transport;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Light paths per parallel work item.
+const CHUNK: u64 = 4096;
+
+/// Chooses lights in proportion to their power.
+pub struct LightSampler {
+    cdf: Vec<f32>,
+    total: f32,
+}
+
+impl LightSampler {
+    /// Builds the distribution over `scene.lights` (mean-channel power).
+    pub fn new(scene: &Scene) -> Self {
+        let mut total = 0.0;
+        let cdf = scene
+            .lights
+            .iter()
+            .map(|l| {
+                total += luminance(l.power());
+                total
+            })
+            .collect();
+        Self { cdf, total }
+    }
+
+    /// True if no light emits anything.
+    pub fn is_empty(&self) -> bool {
+        self.total <= 0.0
+    }
+
+    /// A light index and its probability.
+    pub fn pick(&self, u: f32) -> (usize, f32) {
+        let target = u * self.total;
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len() - 1);
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        (i, (self.cdf[i] - lo) / self.total)
+    }
+}
+
+/// Settings of one photon pass.
+#[derive(Clone, Copy, Debug)]
+pub struct PhotonPass {
+    /// Render seed.
+    pub seed: u64,
+    /// Iteration number (1-based).
+    pub iteration: u64,
+    /// Light paths to emit.
+    pub paths: u64,
+    /// Maximum scattering events per path.
+    pub max_depth: u32,
+}
+
+/// Traces one light path, calling `store` for every photon it leaves.
+fn trace_path(
+    scene: &Scene,
+    lights: &LightSampler,
+    pass: &PhotonPass,
+    index: u64,
+    store: &mut impl FnMut(Photon),
+) {
+    let mut s = Sampler::new(pass.seed, Purpose::Photon, pass.iteration, index);
+    let (li, p_light) = lights.pick(s.next_f32());
+    let e = scene.lights[li].sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
+    let mut beta: Rgb = e.beta / p_light;
+    if beta.max_element() <= 0.0 {
+        return;
+    }
+    let mut o = if e.n == glam::Vec3::ZERO {
+        e.p
+    } else {
+        offset_origin(e.p, e.n, e.d)
+    };
+    let mut d = e.d;
+    for _ in 0..pass.max_depth {
+        let Some(hit) = scene.intersect(o, d, f32::INFINITY) else {
+            return;
+        };
+        let wo = -d;
+        let material = scene.material_of(&hit);
+        if material.is_diffuse() {
+            // Power convention (see `Photon`): store the path throughput as it arrives.
+            let n = if wo.dot(hit.ng) >= 0.0 {
+                hit.ng
+            } else {
+                -hit.ng
+            };
+            store(Photon {
+                p: hit.p,
+                wi: wo,
+                n,
+                beta,
+            });
+        }
+        let u = s.next_2d();
+        let u_lobe = s.next_f32();
+        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance) else {
+            return;
+        };
+        // Russian roulette with survival probability = the bounce's largest channel weight, so
+        // a surviving photon keeps (about) its power.
+        let q = bs.weight.max_element().min(1.0);
+        if q <= 0.0 || s.next_f32() >= q {
+            return;
+        }
+        beta *= bs.weight / q;
+        o = offset_origin(hit.p, hit.ng, bs.wi);
+        d = bs.wi;
+    }
+}
+
+/// Runs the photon pass into `out` (cleared first). Returns `false` if `stop` was raised before
+/// it finished (the photons are then incomplete and must not be used).
+pub fn trace_photons(
+    scene: &Scene,
+    lights: &LightSampler,
+    pass: &PhotonPass,
+    stop: &AtomicBool,
+    out: &mut Vec<Photon>,
+) -> bool {
+    out.clear();
+    if lights.is_empty() {
+        return true;
+    }
+    let chunks = pass.paths.div_ceil(CHUNK);
+    let parts: Vec<Option<Vec<Photon>>> = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            if stop.load(Ordering::Relaxed) {
+                return None;
+            }
+            let mut local = Vec::with_capacity(CHUNK as usize * 2);
+            let end = ((c + 1) * CHUNK).min(pass.paths);
+            for index in c * CHUNK..end {
+                trace_path(scene, lights, pass, index, &mut |p| local.push(p));
+            }
+            Some(local)
+        })
+        .collect();
+    for part in parts {
+        match part {
+            Some(p) => out.extend_from_slice(&p),
+            None => return false,
+        }
+    }
+    true
+}

@@ -1,0 +1,371 @@
+//! The scene file format: plain serde data, one struct per kind of TOML table, unknown keys
+//! rejected. Tables with a `type` key are dispatched by hand in [`read`] rather than by serde's
+//! internally tagged enums, which buffer the table and lose the line of a bad value.
+//! Meaning and validation live in [`super::load`]; the user documentation is
+//! `docs/scene-format.md`.
+
+use serde::Deserialize;
+use serde::de::DeserializeOwned;
+use toml::Spanned;
+use toml::de::{DeTable, DeValue, ValueDeserializer};
+
+/// An RGB value, or one number for grey.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(untagged)]
+pub enum ColorDef {
+    Grey(f32),
+    Rgb([f32; 3]),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PerspectiveDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub position: [f32; 3],
+    pub look_at: [f32; 3],
+    pub up: Option<[f32; 3]>,
+    pub fov: f32,
+    pub resolution: [u32; 2],
+    pub aperture: Option<f32>,
+    pub focus_distance: Option<f32>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrthographicDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub position: [f32; 3],
+    pub look_at: [f32; 3],
+    pub up: Option<[f32; 3]>,
+    pub height: f32,
+    pub resolution: [u32; 2],
+}
+
+#[derive(Debug)]
+pub enum CameraDef {
+    Perspective(PerspectiveDef),
+    Orthographic(OrthographicDef),
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderDef {
+    pub iterations: Option<u64>,
+    pub time_limit: Option<f64>,
+    pub photons: Option<u64>,
+    pub alpha: Option<f64>,
+    pub radius: Option<f64>,
+    pub radius_fraction: Option<f64>,
+    pub kernel: Option<String>,
+    pub max_depth: Option<u32>,
+    pub seed: Option<u64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiffuseDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub albedo: ColorDef,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MirrorDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub reflectance: Option<ColorDef>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DielectricDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub ior: f32,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InterfaceDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+}
+
+#[derive(Debug)]
+pub enum MaterialDef {
+    Diffuse(DiffuseDef),
+    Mirror(MirrorDef),
+    Dielectric(DielectricDef),
+    Interface,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformDef {
+    pub scale: Option<ScaleDef>,
+    /// Euler angles in degrees, applied about x, then y, then z.
+    pub rotate: Option<[f32; 3]>,
+    pub translate: Option<[f32; 3]>,
+}
+
+/// A uniform or per-axis scale.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(untagged)]
+pub enum ScaleDef {
+    Uniform(f32),
+    Axes([f32; 3]),
+}
+
+/// Declares a shape table: its own fields plus the keys every shape has.
+macro_rules! shape_def {
+    ($name:ident { $($field:ident : $ty:ty),* $(,)? }) => {
+        #[derive(Debug, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct $name {
+            #[serde(rename = "type")]
+            pub _kind: String,
+            $(pub $field: $ty,)*
+            pub material: String,
+            pub emission: Option<ColorDef>,
+            #[serde(default)]
+            pub transform: TransformDef,
+        }
+    };
+}
+
+shape_def!(RectangleDef { size: Option<[f32; 2]> });
+shape_def!(BoxDef { size: Option<[f32; 3]> });
+shape_def!(SphereDef { center: Option<[f32; 3]>, radius: f32, tessellate: Option<u32> });
+shape_def!(MeshDef {
+    vertices: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+});
+shape_def!(ObjDef { file: String });
+
+#[derive(Debug)]
+pub enum ShapeDef {
+    Rectangle(RectangleDef),
+    Box(BoxDef),
+    Sphere(SphereDef),
+    Mesh(MeshDef),
+    Obj(ObjDef),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub position: [f32; 3],
+    pub power: ColorDef,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub position: [f32; 3],
+    pub look_at: [f32; 3],
+    pub power: ColorDef,
+    pub cone_angle: f32,
+    pub falloff_start: Option<f32>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub direction: [f32; 3],
+    pub irradiance: ColorDef,
+}
+
+#[derive(Debug)]
+pub enum LightDef {
+    Point(PointDef),
+    Spot(SpotDef),
+    Directional(DirectionalDef),
+}
+
+/// A whole scene file, with the byte span of every table for error messages.
+#[derive(Debug)]
+pub struct SceneFile {
+    pub camera: (CameraDef, std::ops::Range<usize>),
+    pub render: Option<(RenderDef, std::ops::Range<usize>)>,
+    pub materials: Vec<(String, MaterialDef, std::ops::Range<usize>)>,
+    pub shapes: Vec<(ShapeDef, std::ops::Range<usize>)>,
+    pub lights: Vec<(LightDef, std::ops::Range<usize>)>,
+}
+
+/// A format error: the key path, the byte offset of the bad text, and the message.
+#[derive(Debug)]
+pub struct FormatError {
+    pub key: String,
+    pub at: Option<usize>,
+    pub message: String,
+}
+
+type Value<'i> = Spanned<DeValue<'i>>;
+
+fn error(key: &str, at: usize, message: impl Into<String>) -> FormatError {
+    FormatError {
+        key: key.to_string(),
+        at: Some(at),
+        message: message.into(),
+    }
+}
+
+/// Deserialises one value, keeping the line of whatever inside it is wrong.
+fn typed<T: DeserializeOwned>(v: &Value<'_>, key: &str) -> Result<T, FormatError> {
+    T::deserialize(ValueDeserializer::from(v.clone())).map_err(|e| FormatError {
+        key: key.to_string(),
+        at: e.span().map(|s| s.start).or(Some(v.span().start)),
+        message: e.message().trim().to_string(),
+    })
+}
+
+/// The `type` of a table, checked against `kinds`.
+fn kind<'a>(v: &'a Value<'_>, key: &str, kinds: &[&str]) -> Result<&'a str, FormatError> {
+    let table = v.get_ref().as_table().ok_or_else(|| {
+        error(
+            key,
+            v.span().start,
+            format!("expected a table, found {}", v.get_ref().type_str()),
+        )
+    })?;
+    let t = table.get("type").ok_or_else(|| {
+        error(
+            key,
+            v.span().start,
+            format!("missing `type` (one of {})", kinds.join(", ")),
+        )
+    })?;
+    let name = t
+        .get_ref()
+        .as_str()
+        .ok_or_else(|| error(key, t.span().start, "`type` must be a string"))?;
+    if !kinds.contains(&name) {
+        let list = kinds
+            .iter()
+            .map(|k| format!("\"{k}\""))
+            .collect::<Vec<_>>()
+            .join(", ");
+        return Err(error(
+            &format!("{key}.type"),
+            t.span().start,
+            format!("unknown type \"{name}\"; expected one of {list}"),
+        ));
+    }
+    Ok(name)
+}
+
+fn array<'a, 'i>(v: &'a Value<'i>, key: &str) -> Result<&'a [Value<'i>], FormatError> {
+    match v.get_ref() {
+        DeValue::Array(a) => Ok(&a[..]),
+        other => Err(error(
+            key,
+            v.span().start,
+            format!(
+                "expected an array of tables ([[{key}]]), found {}",
+                other.type_str()
+            ),
+        )),
+    }
+}
+
+/// Parses scene text into [`SceneFile`].
+pub fn read(text: &str) -> Result<SceneFile, FormatError> {
+    let root = DeTable::parse(text).map_err(|e| FormatError {
+        key: String::new(),
+        at: e.span().map(|s| s.start),
+        message: e.message().trim().to_string(),
+    })?;
+    let root = root.get_ref();
+    for (k, v) in root.iter() {
+        let k = k.get_ref().as_ref();
+        if !["camera", "render", "materials", "shapes", "lights"].contains(&k) {
+            return Err(error(
+                k,
+                v.span().start,
+                format!(
+                    "unknown section `{k}`; expected camera, render, materials, shapes or lights"
+                ),
+            ));
+        }
+    }
+    let camera = root.get("camera").ok_or_else(|| FormatError {
+        key: "camera".into(),
+        at: None,
+        message: "missing [camera] table".into(),
+    })?;
+    let camera_def = match kind(camera, "camera", &["perspective", "orthographic"])? {
+        "perspective" => CameraDef::Perspective(typed(camera, "camera")?),
+        _ => CameraDef::Orthographic(typed(camera, "camera")?),
+    };
+    let render = match root.get("render") {
+        Some(r) => Some((typed::<RenderDef>(r, "render")?, r.span())),
+        None => None,
+    };
+    let mut materials = Vec::new();
+    if let Some(m) = root.get("materials") {
+        let table = m.get_ref().as_table().ok_or_else(|| {
+            error(
+                "materials",
+                m.span().start,
+                "expected a table of named materials",
+            )
+        })?;
+        for (name, v) in table.iter() {
+            let name = name.get_ref().to_string();
+            let key = format!("materials.{name}");
+            let def = match kind(v, &key, &["diffuse", "mirror", "dielectric", "interface"])? {
+                "diffuse" => MaterialDef::Diffuse(typed(v, &key)?),
+                "mirror" => MaterialDef::Mirror(typed(v, &key)?),
+                "dielectric" => MaterialDef::Dielectric(typed(v, &key)?),
+                _ => {
+                    typed::<InterfaceDef>(v, &key)?;
+                    MaterialDef::Interface
+                }
+            };
+            materials.push((name, def, v.span()));
+        }
+    }
+    let mut shapes = Vec::new();
+    if let Some(s) = root.get("shapes") {
+        for (i, v) in array(s, "shapes")?.iter().enumerate() {
+            let key = format!("shapes[{i}]");
+            let def = match kind(v, &key, &["rectangle", "box", "sphere", "mesh", "obj"])? {
+                "rectangle" => ShapeDef::Rectangle(typed(v, &key)?),
+                "box" => ShapeDef::Box(typed(v, &key)?),
+                "sphere" => ShapeDef::Sphere(typed(v, &key)?),
+                "mesh" => ShapeDef::Mesh(typed(v, &key)?),
+                _ => ShapeDef::Obj(typed(v, &key)?),
+            };
+            shapes.push((def, v.span()));
+        }
+    }
+    let mut lights = Vec::new();
+    if let Some(l) = root.get("lights") {
+        for (i, v) in array(l, "lights")?.iter().enumerate() {
+            let key = format!("lights[{i}]");
+            let def = match kind(v, &key, &["point", "spot", "directional"])? {
+                "point" => LightDef::Point(typed(v, &key)?),
+                "spot" => LightDef::Spot(typed(v, &key)?),
+                _ => LightDef::Directional(typed(v, &key)?),
+            };
+            lights.push((def, v.span()));
+        }
+    }
+    Ok(SceneFile {
+        camera: (camera_def, camera.span()),
+        render,
+        materials,
+        shapes,
+        lights,
+    })
+}

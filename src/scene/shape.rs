@@ -1,0 +1,215 @@
+//! Shapes: triangle meshes (inline or Wavefront OBJ), rectangles, boxes and spheres (analytic, or
+//! tessellated with interpolated normals), each placed by a transform.
+//!
+//! ```toml
+//! [[shapes]]
+//! type = "rectangle"        # size = [w, h] (default [1, 1]) in the xy-plane, centred, normal +z
+//! size = [2, 2]
+//! material = "white"
+//! emission = [10, 10, 10]   # optional: makes the shape an area light (radiance, front side)
+//! transform = { rotate = [-90, 0, 0], translate = [0, 0, 0] }
+//!
+//! [[shapes]]
+//! type = "box"              # size = [x, y, z] (default [1, 1, 1]), centred at the origin
+//! [[shapes]]
+//! type = "sphere"           # center (default origin), radius; tessellate = N for an icosphere
+//! [[shapes]]
+//! type = "mesh"             # vertices = [[x,y,z], …], triangles = [[i,j,k], …], normals optional
+//! [[shapes]]
+//! type = "obj"              # file = "bunny.obj", relative to the scene file
+//! ```
+//!
+//! Transforms apply scale, then rotation (degrees about x, then y, then z), then translation.
+
+use glam::{Affine3A, Mat3, Quat, Vec3};
+
+/// A triangle mesh in world space.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals, if any (same length as `positions`).
+    pub normals: Option<Vec<Vec3>>,
+    /// Triangles as vertex indices.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// Applies an affine transform (normals by the inverse transpose).
+    pub fn transformed(mut self, m: &Affine3A) -> Self {
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        let nm = Mat3::from(m.matrix3).inverse().transpose();
+        if let Some(ns) = &mut self.normals {
+            for n in ns {
+                *n = (nm * *n).normalize_or_zero();
+            }
+        }
+        if m.matrix3.determinant() < 0.0 {
+            // A mirroring transform flips winding; keep geometric normals outward.
+            for t in &mut self.triangles {
+                t.swap(1, 2);
+            }
+        }
+        self
+    }
+
+    /// Vertices of every triangle.
+    pub fn triangle_vertices(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
+        self.triangles
+            .iter()
+            .map(|t| t.map(|i| self.positions[i as usize]))
+    }
+}
+
+/// The transform matrix: translate · rotate_z · rotate_y · rotate_x · scale.
+pub fn affine(scale: Vec3, rotate_deg: Vec3, translate: Vec3) -> Affine3A {
+    let r = Quat::from_rotation_z(rotate_deg.z.to_radians())
+        * Quat::from_rotation_y(rotate_deg.y.to_radians())
+        * Quat::from_rotation_x(rotate_deg.x.to_radians());
+    Affine3A::from_scale_rotation_translation(scale, r, translate)
+}
+
+/// A w × h rectangle in the xy-plane, centred, facing +z.
+pub fn rectangle(w: f32, h: f32) -> Mesh {
+    let (x, y) = (0.5 * w, 0.5 * h);
+    Mesh {
+        positions: vec![
+            Vec3::new(-x, -y, 0.0),
+            Vec3::new(x, -y, 0.0),
+            Vec3::new(x, y, 0.0),
+            Vec3::new(-x, y, 0.0),
+        ],
+        normals: None,
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    }
+}
+
+/// An axis-aligned box of the given size, centred, with outward faces.
+pub fn cuboid(size: Vec3) -> Mesh {
+    let h = 0.5 * size;
+    let mut mesh = Mesh::default();
+    // Each face: outward normal axis and the two in-plane axes ordered so (u × v) = normal.
+    let faces = [
+        (Vec3::X, Vec3::Y, Vec3::Z),
+        (-Vec3::X, Vec3::Z, Vec3::Y),
+        (Vec3::Y, Vec3::Z, Vec3::X),
+        (-Vec3::Y, Vec3::X, Vec3::Z),
+        (Vec3::Z, Vec3::X, Vec3::Y),
+        (-Vec3::Z, Vec3::Y, Vec3::X),
+    ];
+    for (n, u, v) in faces {
+        let base = mesh.positions.len() as u32;
+        for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            mesh.positions.push((n + u * a + v * b) * h);
+        }
+        mesh.triangles.push([base, base + 1, base + 2]);
+        mesh.triangles.push([base, base + 2, base + 3]);
+    }
+    mesh
+}
+
+/// An icosphere: an icosahedron subdivided `level` times and projected onto the sphere, with
+/// normals interpolated from the true sphere normals.
+pub fn icosphere(center: Vec3, radius: f32, level: u32) -> Mesh {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut positions: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut triangles: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..level {
+        let mut midpoints = std::collections::HashMap::new();
+        let mut mid = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
+            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                positions.push((positions[a as usize] + positions[b as usize]).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        let mut next = Vec::with_capacity(triangles.len() * 4);
+        for [a, b, c] in triangles {
+            let ab = mid(a, b, &mut positions);
+            let bc = mid(b, c, &mut positions);
+            let ca = mid(c, a, &mut positions);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        triangles = next;
+    }
+    let normals = positions.clone();
+    Mesh {
+        positions: positions.iter().map(|&p| center + p * radius).collect(),
+        normals: Some(normals),
+        triangles,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn outward(mesh: &Mesh, centre: Vec3) -> bool {
+        mesh.triangle_vertices().all(|[a, b, c]| {
+            let n = (b - a).cross(c - a);
+            n.dot((a + b + c) / 3.0 - centre) > 0.0
+        })
+    }
+
+    #[test]
+    fn closed_shapes_face_outward_even_when_mirrored() {
+        assert!(outward(&cuboid(Vec3::new(1.0, 2.0, 3.0)), Vec3::ZERO));
+        assert!(outward(&icosphere(Vec3::ONE, 2.0, 2), Vec3::ONE));
+        let m = affine(
+            Vec3::new(-1.0, 1.0, 1.0),
+            Vec3::new(10.0, 20.0, 30.0),
+            Vec3::X,
+        );
+        assert!(outward(&cuboid(Vec3::ONE).transformed(&m), Vec3::X));
+    }
+
+    #[test]
+    fn rectangle_faces_plus_z_and_rotates_to_floor() {
+        let m = affine(Vec3::ONE, Vec3::new(-90.0, 0.0, 0.0), Vec3::ZERO);
+        let [a, b, c] = rectangle(2.0, 2.0)
+            .transformed(&m)
+            .triangle_vertices()
+            .next()
+            .unwrap();
+        let n = (b - a).cross(c - a).normalize();
+        assert!((n - Vec3::Y).length() < 1e-5, "{n}");
+    }
+}

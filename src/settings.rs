@@ -1,0 +1,128 @@
+//! Render settings: the `[render]` table of a scene file, overridable from the command line.
+//!
+//! ```toml
+//! [render]
+//! iterations = 64           # stop after this many iterations …
+//! time_limit = 60           # … or after this many seconds, whichever comes first
+//! photons = 200000          # light paths emitted per iteration
+//! alpha = 0.7               # radius reduction α in (0, 1)
+//! radius_fraction = 0.01    # initial radius relative to the scene's bounding-box diagonal …
+//! # radius = 0.02           # … or absolute, in scene units (give one of the two)
+//! kernel = "epanechnikov"   # "constant", "epanechnikov" or "biweight"
+//! max_depth = 16            # maximum scattering events on light and eye paths
+//! seed = 0
+//! ```
+
+use crate::estimate::kernel::Kernel;
+
+/// Initial photon-gathering radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Radius {
+    /// In scene units.
+    Absolute(f64),
+    /// As a fraction of the diagonal of the scene's bounding box.
+    Fraction(f64),
+}
+
+/// How to render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Stop after this many iterations (`None`: only the time limit stops the render).
+    pub iterations: Option<u64>,
+    /// Stop after this many seconds of rendering.
+    pub time_limit: Option<f64>,
+    /// Light paths emitted per iteration.
+    pub photons: u64,
+    /// Radius reduction parameter α ∈ (0, 1) of the surface schedule.
+    pub alpha: f64,
+    /// Initial surface radius.
+    pub radius: Radius,
+    /// Density-estimation kernel.
+    pub kernel: Kernel,
+    /// Maximum number of scattering events on a path.
+    pub max_depth: u32,
+    /// Seed of every random stream.
+    pub seed: u64,
+}
+
+/// Iterations rendered when neither an iteration count nor a time limit is given.
+pub const DEFAULT_ITERATIONS: u64 = 64;
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            iterations: Some(DEFAULT_ITERATIONS),
+            time_limit: None,
+            photons: 100_000,
+            alpha: 2.0 / 3.0,
+            radius: Radius::Fraction(0.01),
+            kernel: Kernel::Epanechnikov,
+            max_depth: 16,
+            seed: 0,
+        }
+    }
+}
+
+/// A rejected setting: the key (as in the scene file) and the reason.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingError {
+    /// Key within `[render]`, e.g. `alpha`.
+    pub key: &'static str,
+    /// Why it was rejected.
+    pub message: String,
+}
+
+fn err(key: &'static str, message: impl Into<String>) -> Result<(), SettingError> {
+    Err(SettingError {
+        key,
+        message: message.into(),
+    })
+}
+
+impl RenderSettings {
+    /// Checks every setting; the error names the offending key.
+    pub fn validate(&self) -> Result<(), SettingError> {
+        if self.iterations == Some(0) {
+            return err("iterations", "must be at least 1");
+        }
+        if let Some(t) = self.time_limit {
+            if !(t.is_finite() && t > 0.0) {
+                return err(
+                    "time_limit",
+                    format!("must be a positive number of seconds, got {t}"),
+                );
+            }
+        }
+        if self.iterations.is_none() && self.time_limit.is_none() {
+            return err(
+                "iterations",
+                "give an iteration count, a time limit, or both",
+            );
+        }
+        if self.photons == 0 {
+            return err("photons", "must be at least 1");
+        }
+        if self.photons > u32::MAX as u64 {
+            return err("photons", format!("at most {} per iteration", u32::MAX));
+        }
+        if !(self.alpha > 0.0 && self.alpha < 1.0) {
+            return err(
+                "alpha",
+                format!("must lie strictly between 0 and 1, got {}", self.alpha),
+            );
+        }
+        match self.radius {
+            Radius::Absolute(r) if !(r.is_finite() && r > 0.0) => {
+                return err("radius", format!("must be a positive length, got {r}"));
+            }
+            Radius::Fraction(f) if !(f.is_finite() && f > 0.0 && f <= 1.0) => {
+                return err("radius_fraction", format!("must lie in (0, 1], got {f}"));
+            }
+            _ => {}
+        }
+        if self.max_depth == 0 {
+            return err("max_depth", "must be at least 1");
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,172 @@
+//! Every kind of bad scene file gives its documented error (docs/scene-format.md, "Errors"):
+//! naming the file, the key and, where possible, the line. Never a panic.
+
+use crate::common::temp_dir;
+use haze::{Error, Scene};
+use std::path::Path;
+
+const CAMERA: &str = r#"
+[camera]
+type = "perspective"
+position = [0, 1, 4]
+look_at = [0, 1, 0]
+fov = 40
+resolution = [32, 32]
+"#;
+
+const BODY: &str = r#"
+[materials.white]
+type = "diffuse"
+albedo = 0.7
+
+[[shapes]]
+type = "rectangle"
+size = [2, 2]
+material = "white"
+transform = { rotate = [-90, 0, 0] }
+
+[[lights]]
+type = "point"
+position = [0, 1.5, 0]
+power = 20
+"#;
+
+fn load(text: &str) -> Result<Scene, Error> {
+    Scene::from_toml(text, Path::new("bad.toml"), Path::new("."))
+}
+
+/// Loads `text`, expects an error, and checks its message contains every one of `needles`.
+fn expect_error(text: &str, needles: &[&str]) -> String {
+    let msg = match load(text) {
+        Ok(_) => panic!("scene was accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    };
+    for n in needles {
+        assert!(msg.contains(n), "error `{msg}` does not mention `{n}`");
+    }
+    assert!(
+        msg.starts_with("bad.toml"),
+        "error `{msg}` does not name the file"
+    );
+    msg
+}
+
+#[test]
+fn the_base_scene_is_valid() {
+    let scene = load(&format!("{CAMERA}{BODY}")).unwrap();
+    assert_eq!(scene.shapes.len(), 1);
+}
+
+#[test]
+fn unknown_key_names_the_key_and_line() {
+    let text = format!("{CAMERA}fvo = 30\n{BODY}");
+    expect_error(&text, &["fvo", ":8"]);
+    let text = format!("{CAMERA}{BODY}radus = 2\n");
+    expect_error(&text, &["radus"]);
+}
+
+#[test]
+fn wrong_type_names_the_line() {
+    let text = format!("{CAMERA}{BODY}").replace("fov = 40", "fov = \"wide\"");
+    expect_error(&text, &[":6", "string"]);
+}
+
+#[test]
+fn nan_and_negative_values_name_the_key_and_line() {
+    let text = format!("{CAMERA}{BODY}").replace("albedo = 0.7", "albedo = nan");
+    expect_error(&text, &["materials.white.albedo", "finite", ":9"]);
+    let text = format!("{CAMERA}{BODY}").replace("power = 20", "power = -20");
+    expect_error(&text, &["lights[0].power", "negative", ":19"]);
+    let text = format!("{CAMERA}{BODY}").replace("size = [2, 2]", "size = [2, -1]");
+    expect_error(&text, &["shapes[0].size", "positive", ":13"]);
+    let text = format!("{CAMERA}{BODY}").replace("albedo = 0.7", "albedo = [0.5, 1.5, 0.5]");
+    expect_error(&text, &["materials.white.albedo", "exceed"]);
+}
+
+#[test]
+fn undefined_material_names_the_shape_and_line() {
+    let text = format!("{CAMERA}{BODY}").replace("material = \"white\"", "material = \"whte\"");
+    expect_error(&text, &["shapes[0].material", "whte", ":13"]);
+}
+
+#[test]
+fn missing_obj_file_names_the_file() {
+    let dir = temp_dir("missing-obj");
+    let text = format!(
+        "{CAMERA}{BODY}\n[[shapes]]\ntype = \"obj\"\nfile = \"nowhere.obj\"\nmaterial = \"white\"\n"
+    );
+    let err = Scene::from_toml(&text, Path::new("bad.toml"), &dir)
+        .err()
+        .expect("accepted");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("nowhere.obj") && msg.contains("no such file"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn corrupt_obj_file_is_an_error_not_a_panic() {
+    let dir = temp_dir("corrupt-obj");
+    std::fs::write(dir.join("broken.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
+    let text = format!(
+        "{CAMERA}{BODY}\n[[shapes]]\ntype = \"obj\"\nfile = \"broken.obj\"\nmaterial = \"white\"\n"
+    );
+    let err = Scene::from_toml(&text, Path::new("bad.toml"), &dir)
+        .err()
+        .expect("accepted");
+    assert!(err.to_string().contains("broken.obj"), "{err}");
+}
+
+#[test]
+fn obj_file_loads_with_its_normals() {
+    let dir = temp_dir("good-obj");
+    std::fs::write(
+        dir.join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 1\nvn 0 0 1\nf 1//1 2//2 3//3\n",
+    )
+    .unwrap();
+    let text = format!(
+        "{CAMERA}{BODY}\n[[shapes]]\ntype = \"obj\"\nfile = \"tri.obj\"\nmaterial = \"white\"\n"
+    );
+    let scene = Scene::from_toml(&text, Path::new("ok.toml"), &dir).unwrap();
+    assert_eq!(scene.shapes.len(), 2);
+}
+
+#[test]
+fn impossible_settings_name_the_key() {
+    let text = format!("{CAMERA}{BODY}[render]\nalpha = 1.5\n");
+    expect_error(&text, &["render.alpha", "between 0 and 1"]);
+    let text = format!("{CAMERA}{BODY}[render]\nkernel = \"gauss\"\n");
+    expect_error(&text, &["render.kernel", "gauss"]);
+    let text = format!("{CAMERA}{BODY}[render]\nradius = 0.1\nradius_fraction = 0.01\n");
+    expect_error(&text, &["render.radius", "not both"]);
+    let text = format!("{CAMERA}{BODY}[render]\nphotons = 0\n");
+    expect_error(&text, &["render.photons"]);
+}
+
+#[test]
+fn impossible_camera_names_the_key() {
+    let text = format!("{CAMERA}{BODY}").replace("look_at = [0, 1, 0]", "look_at = [0, 1, 4]");
+    expect_error(&text, &["camera.look_at", "differ"]);
+    let text = format!("{CAMERA}{BODY}").replace("fov = 40", "fov = 180");
+    expect_error(&text, &["camera.fov"]);
+    let text = format!("{CAMERA}{BODY}").replace("[32, 32]", "[0, 32]");
+    expect_error(&text, &["camera.resolution"]);
+}
+
+#[test]
+fn missing_sections_and_bad_syntax_are_parse_errors() {
+    expect_error(BODY, &["camera"]);
+    expect_error(&format!("{CAMERA}{BODY}[[shapes]\n"), &[":"]);
+    expect_error(
+        &format!("{CAMERA}{BODY}").replace("\"rectangle\"", "\"torus\""),
+        &["torus"],
+    );
+}
+
+#[test]
+fn missing_scene_file_names_the_file() {
+    let err = Scene::load("no/such/scene.toml").err().expect("loaded");
+    assert!(err.to_string().contains("no/such/scene.toml"), "{err}");
+}

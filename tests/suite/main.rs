@@ -1,0 +1,11 @@
+//! haze's integration tests, compiled as one binary with shared helpers in `common`.
+
+mod analytic;
+mod bad_scenes;
+mod cli;
+mod common;
+mod determinism;
+mod kernel;
+mod output;
+mod sampling;
+mod schedule;
