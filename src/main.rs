@@ -70,6 +70,7 @@ struct Overrides {
 }
 
 #[derive(Args)]
+#[command(allow_negative_numbers = true)]
 struct RenderArgs {
     /// Scene file (TOML; see docs/scene-format.md).
     scene: PathBuf,
@@ -90,6 +91,7 @@ struct RenderArgs {
 }
 
 #[derive(Args)]
+#[command(allow_negative_numbers = true)]
 struct BenchArgs {
     /// Scene file [default: scenes/cornell-box.toml].
     scene: Option<PathBuf>,

@@ -45,6 +45,9 @@ pub struct RenderSettings {
     pub seed: u64,
 }
 
+/// Most light paths per iteration: each stores photons of 48 bytes, several per path.
+pub const MAX_PHOTONS: u64 = 50_000_000;
+
 /// Iterations rendered when neither an iteration count nor a time limit is given.
 pub const DEFAULT_ITERATIONS: u64 = 64;
 
@@ -102,8 +105,14 @@ impl RenderSettings {
         if self.photons == 0 {
             return err("photons", "must be at least 1");
         }
-        if self.photons > u32::MAX as u64 {
-            return err("photons", format!("at most {} per iteration", u32::MAX));
+        if self.photons > MAX_PHOTONS {
+            return err(
+                "photons",
+                format!(
+                    "at most {MAX_PHOTONS} per iteration (photon memory), got {}",
+                    self.photons
+                ),
+            );
         }
         if !(self.alpha > 0.0 && self.alpha < 1.0) {
             return err(

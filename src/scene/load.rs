@@ -171,6 +171,9 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
     b.build()
 }
 
+/// Largest image: 64 Mpixel (the film holds 24 bytes per pixel).
+const MAX_PIXELS: u64 = 1 << 26;
+
 fn camera(def: &CameraDef, places: &Places) -> Result<Camera> {
     let (position, look_at, up, resolution) = match def {
         CameraDef::Perspective(d) => (d.position, d.look_at, d.up, d.resolution),
@@ -198,10 +201,11 @@ fn camera(def: &CameraDef, places: &Places) -> Result<Camera> {
             "must not be parallel to the viewing direction".into(),
         ));
     }
-    if resolution[0] == 0 || resolution[1] == 0 || resolution[0] > 32768 || resolution[1] > 32768 {
+    let pixels = resolution[0] as u64 * resolution[1] as u64;
+    if resolution[0] == 0 || resolution[1] == 0 || pixels > MAX_PIXELS {
         return Err(err(
             "resolution",
-            format!("each side must lie in 1..=32768, got {resolution:?}"),
+            format!("needs 1 to {MAX_PIXELS} pixels in all, got {resolution:?}"),
         ));
     }
     let projection = match def {

@@ -142,13 +142,14 @@ pub enum Geometry {
 ///     Projection::Perspective { tan_half_fov: 0.5, lens_radius: 0.0, focus_distance: 1.0 },
 ///     Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO, Vec3::Y, [64, 48]);
 /// let mut b = SceneBuilder::new(camera);
-/// let grey = b.material("grey", Material::Diffuse { albedo: Vec3::splat(0.5) }).unwrap();
+/// let grey = b.material("grey", Material::Diffuse { albedo: Vec3::splat(0.5) })?;
 /// let floor = shape::rectangle(4.0, 4.0)
 ///     .transformed(&shape::affine(Vec3::ONE, Vec3::new(-90.0, 0.0, 0.0), Vec3::ZERO));
-/// b.shape(Geometry::Mesh(floor), grey, None).unwrap();
-/// b.light(LightDesc::Point { position: Vec3::new(0.0, 2.0, 0.0), power: Vec3::splat(30.0) }).unwrap();
-/// let scene = b.build().unwrap();
+/// b.shape(Geometry::Mesh(floor), grey, None)?;
+/// b.light(LightDesc::Point { position: Vec3::new(0.0, 2.0, 0.0), power: Vec3::splat(30.0) })?;
+/// let scene = b.build()?;
 /// assert_eq!(scene.lights.len(), 1);
+/// # Ok::<(), haze::Error>(())
 /// ```
 pub struct SceneBuilder {
     camera: Camera,
@@ -377,10 +378,13 @@ impl SceneBuilder {
             let tag = i as u32;
             match geometry {
                 Geometry::Mesh(mesh) => {
-                    for (t, tri) in mesh.triangles.iter().enumerate() {
+                    for tri in &mesh.triangles {
                         let p = tri.map(|v| mesh.positions[v as usize]);
+                        // Degenerate triangles have no normal and can never be hit: drop them.
+                        if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
+                            continue;
+                        }
                         let normals = mesh.normals.as_ref().map(|n| tri.map(|v| n[v as usize]));
-                        let _ = t;
                         prims.push(Primitive::Triangle { p, normals, tag });
                     }
                 }
