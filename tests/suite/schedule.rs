@@ -17,7 +17,7 @@ fn schedule_follows_the_recurrence_and_its_asymptote() {
                 );
             }
             // Asymptote r_n^d ≈ n^(α−1) / Γ(1+α).
-            let n = 1e7;
+            let n = 1e7f64;
             let asym = n.powf(alpha - 1.0) / ln_gamma(1.0 + alpha).exp();
             let got = radius_ratio(n as u64, alpha, dim).powi(dim as i32);
             assert!(
