@@ -18,7 +18,7 @@
 //! let mut settings = scene.settings.clone();
 //! settings.iterations = Some(16);
 //! let stop = AtomicBool::new(false);
-//! let mut on_iteration = |s: &Status| eprintln!("iteration {} r = {:.4}", s.iteration, s.radius);
+//! let mut on_iteration = |s: &Status| eprintln!("iteration {}", s.iteration());
 //! let image = render(&scene, &settings, &mut on_iteration, &stop)?;
 //! image.write("cornell.exr".as_ref(), 1.0)?;
 //! # Ok::<(), haze::Error>(())
@@ -32,6 +32,7 @@ pub mod estimate;
 pub mod film;
 pub mod integrator;
 pub mod math;
+pub mod medium;
 pub mod output;
 pub mod photon;
 pub mod progress;

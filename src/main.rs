@@ -4,8 +4,8 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use haze::estimate::kernel::Kernel;
 use haze::progress::Status;
-use haze::settings::{Radius, RenderSettings};
-use haze::{Image, Scene};
+use haze::settings::{Radius, RenderSettings, VolumeEstimate};
+use haze::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -64,6 +64,21 @@ struct Overrides {
     /// Random seed; the same scene, seed and iteration count give the same image.
     #[arg(short = 's', long, value_name = "S")]
     seed: Option<u64>,
+    /// In-scattering estimate in media: beam (beam radiance estimate) or point (3-D kernel).
+    #[arg(long, value_name = "KIND", value_parser = parse_volume_estimate)]
+    volume_estimate: Option<VolumeEstimate>,
+    /// Radius reduction α of the volume schedule r^d(i+1)/r^d(i) = (i+α)/(i+1).
+    #[arg(long, value_name = "A")]
+    volume_alpha: Option<f64>,
+    /// Initial volume radius in scene units.
+    #[arg(long, value_name = "R", conflicts_with = "volume_radius_fraction")]
+    volume_radius: Option<f64>,
+    /// Initial volume radius as a fraction of the scene's bounding-box diagonal.
+    #[arg(long, value_name = "F")]
+    volume_radius_fraction: Option<f64>,
+    /// Dimension d of the volume radius schedule (3 by default; 2 for experiments).
+    #[arg(long, value_name = "D")]
+    volume_dimension: Option<u32>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(short = 'j', long, value_name = "T")]
     threads: Option<usize>,
@@ -126,6 +141,10 @@ fn parse_kernel(s: &str) -> Result<Kernel, String> {
     s.parse()
 }
 
+fn parse_volume_estimate(s: &str) -> Result<VolumeEstimate, String> {
+    s.parse()
+}
+
 /// The scene's settings with the command-line overrides applied and validated.
 fn apply(base: &RenderSettings, o: &Overrides) -> Result<RenderSettings> {
     let mut s = base.clone();
@@ -152,20 +171,21 @@ fn apply(base: &RenderSettings, o: &Overrides) -> Result<RenderSettings> {
     s.kernel = o.kernel.unwrap_or(s.kernel);
     s.max_depth = o.max_depth.unwrap_or(s.max_depth);
     s.seed = o.seed.unwrap_or(s.seed);
+    s.volume_estimate = o.volume_estimate.unwrap_or(s.volume_estimate);
+    s.volume_alpha = o.volume_alpha.unwrap_or(s.volume_alpha);
+    if let Some(r) = o.volume_radius {
+        s.volume_radius = Radius::Absolute(r);
+    }
+    if let Some(f) = o.volume_radius_fraction {
+        s.volume_radius = Radius::Fraction(f);
+    }
+    s.volume_dimension = o.volume_dimension.unwrap_or(s.volume_dimension);
     if let Err(e) = s.validate() {
         let flag = match e.key {
-            "iterations" => "--iterations",
-            "time_limit" => "--time",
-            "radius_fraction" => "--radius-fraction",
-            "max_depth" => "--max-depth",
-            k => {
-                return Err(anyhow::anyhow!(
-                    "--{k} (or the scene's render.{k}): {}",
-                    e.message
-                ));
-            }
+            "time_limit" => "time".to_string(),
+            k => k.replace('_', "-"),
         };
-        bail!("{flag} (or the scene's render.{}): {}", e.key, e.message);
+        bail!("--{flag} (or the scene's render.{}): {}", e.key, e.message);
     }
     if o.threads == Some(0) {
         bail!("--threads must be at least 1");
@@ -237,19 +257,7 @@ fn render(args: RenderArgs) -> Result<()> {
         if let Some(every) = args.snapshot_every {
             if last_snapshot.elapsed().as_secs_f64() >= every {
                 last_snapshot = Instant::now();
-                let info = haze::RenderInfo {
-                    iterations: s.iteration,
-                    light_paths: s.light_paths,
-                    initial_radius: f64::NAN,
-                    radius: s.radius,
-                    alpha: settings.alpha,
-                    kernel: settings.kernel,
-                    seed: settings.seed,
-                    elapsed: s.elapsed,
-                    scene: Some(args.scene.clone()),
-                    nonfinite_samples: 0,
-                };
-                if let Err(e) = Image::from_film(s.film, info).write(&output, args.exposure) {
+                if let Err(e) = s.snapshot().write(&output, args.exposure) {
                     snapshot_error.get_or_insert(e);
                 }
             }
@@ -307,17 +315,18 @@ fn progress_bar(settings: &RenderSettings) -> ProgressBar {
 }
 
 fn update_bar(bar: &ProgressBar, s: &Status) {
+    let i = s.info;
     match s.target_iterations {
-        Some(_) => bar.set_position(s.iteration),
-        None => {
-            bar.set_position((s.elapsed * 1000.0) as u64);
-        }
+        Some(_) => bar.set_position(i.iterations),
+        None => bar.set_position((i.elapsed * 1000.0) as u64),
     }
-    let rate = s.iteration as f64 / s.elapsed.max(1e-9);
-    bar.set_message(format!(
-        "it {} ({rate:.2} it/s), r = {:.5}",
-        s.iteration, s.radius
-    ));
+    let rate = i.iterations as f64 / i.elapsed.max(1e-9);
+    let volume = if s.volume_photons_stored > 0 {
+        format!(", volume r = {:.5}", i.volume_radius)
+    } else {
+        String::new()
+    };
+    bar.set_message(format!("it {} ({rate:.2} it/s), r = {:.5}{volume}", i.iterations, i.radius));
 }
 
 fn bench(args: BenchArgs) -> Result<()> {
@@ -330,13 +339,14 @@ fn bench(args: BenchArgs) -> Result<()> {
     let settings = apply(&scene.settings, &o)?;
     let pool = thread_pool(o.threads)?;
     let stop = AtomicBool::new(false);
-    let (mut photon_s, mut camera_s, mut stored) = (0.0, 0.0, 0u64);
+    let (mut photon_s, mut camera_s, mut stored, mut stored_volume) = (0.0, 0.0, 0u64, 0u64);
     let mut on_iteration = |s: &Status| {
         // The first iteration warms caches and the allocator; time the rest.
-        if s.iteration > 1 {
+        if s.iteration() > 1 {
             photon_s += s.photon_seconds;
             camera_s += s.camera_seconds;
             stored += s.photons_stored;
+            stored_volume += s.volume_photons_stored;
         }
     };
     let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, &stop))?;
@@ -356,13 +366,15 @@ fn bench(args: BenchArgs) -> Result<()> {
     println!("| pass | per second | seconds per iteration |");
     println!("|---|---|---|");
     println!(
-        "| photon pass (trace + map build) | {:.0} light paths/s, {:.0} photons stored/s | {:.4} |",
+        "| photon pass (trace + map build) | {:.0} light paths/s, {:.0} surface + {:.0} volume photons stored/s | {:.4} |",
         paths / photon_s,
         stored as f64 / photon_s,
+        stored_volume as f64 / photon_s,
         photon_s / timed as f64
     );
     println!(
-        "| camera pass (trace + estimate) | {:.0} camera paths/s | {:.4} |",
+        "| camera pass (trace + {} estimate) | {:.0} camera paths/s | {:.4} |",
+        settings.volume_estimate.name(),
         pixels / camera_s,
         camera_s / timed as f64
     );

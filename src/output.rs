@@ -19,6 +19,16 @@ pub struct RenderInfo {
     pub radius: f64,
     /// Radius reduction α.
     pub alpha: f64,
+    /// Initial volume radius.
+    pub volume_initial_radius: f64,
+    /// Volume radius of the last iteration.
+    pub volume_radius: f64,
+    /// Radius reduction α of the volume schedule.
+    pub volume_alpha: f64,
+    /// Dimension of the volume schedule.
+    pub volume_dimension: u32,
+    /// Volume estimator.
+    pub volume_estimate: crate::settings::VolumeEstimate,
     /// Kernel.
     pub kernel: Kernel,
     /// Seed.
@@ -124,6 +134,11 @@ impl Image {
         put("radius", AttributeValue::F64(info.radius));
         put("initialRadius", AttributeValue::F64(info.initial_radius));
         put("alpha", AttributeValue::F64(info.alpha));
+        put("volumeRadius", AttributeValue::F64(info.volume_radius));
+        put("volumeInitialRadius", AttributeValue::F64(info.volume_initial_radius));
+        put("volumeAlpha", AttributeValue::F64(info.volume_alpha));
+        put("volumeDimension", AttributeValue::I32(info.volume_dimension as i32));
+        put("volumeEstimate", AttributeValue::Text(Text::from(info.volume_estimate.name())));
         put(
             "kernel",
             AttributeValue::Text(Text::from(info.kernel.name())),

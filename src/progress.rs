@@ -2,29 +2,43 @@
 //! every finished iteration, and the caller decides what to show (the CLI draws a progress bar).
 
 use crate::film::Film;
+use crate::output::{Image, RenderInfo};
 
 /// What is known after an iteration.
 pub struct Status<'a> {
-    /// Iterations finished.
-    pub iteration: u64,
     /// Iterations requested, if bounded.
     pub target_iterations: Option<u64>,
     /// Time limit in seconds, if any.
     pub time_limit: Option<f64>,
-    /// Seconds since the render started.
-    pub elapsed: f64,
-    /// Surface radius used by the last iteration.
-    pub radius: f64,
-    /// Light paths traced so far.
-    pub light_paths: u64,
-    /// Photons stored by the last iteration.
+    /// Surface photons stored by the last iteration.
     pub photons_stored: u64,
-    /// Seconds the last iteration spent in the photon pass (tracing and building the map).
+    /// Volume photons stored by the last iteration.
+    pub volume_photons_stored: u64,
+    /// Seconds the last iteration spent in the photon pass (tracing and building the maps).
     pub photon_seconds: f64,
     /// Seconds the last iteration spent in the camera pass.
     pub camera_seconds: f64,
-    /// The accumulated film (for snapshots).
+    /// The accumulated film.
     pub film: &'a Film,
+    /// The render so far: iterations, light paths, current radii, elapsed time, …
+    pub info: &'a RenderInfo,
+}
+
+impl Status<'_> {
+    /// Iterations finished.
+    pub fn iteration(&self) -> u64 {
+        self.info.iterations
+    }
+
+    /// Seconds since the render started.
+    pub fn elapsed(&self) -> f64 {
+        self.info.elapsed
+    }
+
+    /// The image so far, with its metadata (for snapshots).
+    pub fn snapshot(&self) -> Image {
+        Image::from_film(self.film, self.info.clone())
+    }
 }
 
 /// Receives render progress.

@@ -11,6 +11,10 @@
 //! kernel = "epanechnikov"   # "constant", "epanechnikov" or "biweight"
 //! max_depth = 16            # maximum scattering events on light and eye paths
 //! seed = 0
+//! volume_estimate = "beam"  # in-scattering estimate in media: "beam" or "point"
+//! volume_alpha = 0.5        # α of the volume schedule r³(i+1)/r³(i) = (i+α)/(i+1)
+//! volume_radius_fraction = 0.005  # initial volume radius (or `volume_radius`, absolute)
+//! volume_dimension = 3      # dimension d of the volume schedule (3; 2 for experiments)
 //! ```
 
 use crate::estimate::kernel::Kernel;
@@ -22,6 +26,38 @@ pub enum Radius {
     Absolute(f64),
     /// As a fraction of the diagonal of the scene's bounding box.
     Fraction(f64),
+}
+
+/// How in-scattered radiance is estimated along eye paths in media.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VolumeEstimate {
+    /// The beam radiance estimate (Jarosz et al. 2008): every volume photon whose kernel disc the
+    /// eye segment crosses, with a 2-D kernel.
+    Beam,
+    /// The point estimate (Jensen & Christensen 1998): a 3-D kernel density estimate at a
+    /// collision sampled along the eye segment.
+    Point,
+}
+
+impl VolumeEstimate {
+    /// Name as written in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            VolumeEstimate::Beam => "beam",
+            VolumeEstimate::Point => "point",
+        }
+    }
+}
+
+impl std::str::FromStr for VolumeEstimate {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "beam" => Ok(VolumeEstimate::Beam),
+            "point" => Ok(VolumeEstimate::Point),
+            _ => Err(format!("unknown volume estimate `{s}`; expected \"beam\" or \"point\"")),
+        }
+    }
 }
 
 /// How to render.
@@ -43,6 +79,14 @@ pub struct RenderSettings {
     pub max_depth: u32,
     /// Seed of every random stream.
     pub seed: u64,
+    /// In-scattering estimator in media.
+    pub volume_estimate: VolumeEstimate,
+    /// Radius reduction α of the volume schedule.
+    pub volume_alpha: f64,
+    /// Initial volume radius.
+    pub volume_radius: Radius,
+    /// Dimension d of the volume schedule r^d(i+1)/r^d(i) = (i+α)/(i+1): 3 (default) or 2.
+    pub volume_dimension: u32,
 }
 
 /// Most light paths per iteration: each stores photons of 48 bytes, several per path.
@@ -62,6 +106,10 @@ impl Default for RenderSettings {
             kernel: Kernel::Epanechnikov,
             max_depth: 16,
             seed: 0,
+            volume_estimate: VolumeEstimate::Beam,
+            volume_alpha: 0.5,
+            volume_radius: Radius::Fraction(0.005),
+            volume_dimension: 3,
         }
     }
 }
@@ -80,6 +128,18 @@ fn err(key: &'static str, message: impl Into<String>) -> Result<(), SettingError
         key,
         message: message.into(),
     })
+}
+
+fn check_radius(r: Radius, abs: &'static str, frac: &'static str) -> Result<(), SettingError> {
+    match r {
+        Radius::Absolute(r) if !(r.is_finite() && r > 0.0) => {
+            err(abs, format!("must be a positive length, got {r}"))
+        }
+        Radius::Fraction(f) if !(f.is_finite() && f > 0.0 && f <= 1.0) => {
+            err(frac, format!("must lie in (0, 1], got {f}"))
+        }
+        _ => Ok(()),
+    }
 }
 
 impl RenderSettings {
@@ -120,14 +180,16 @@ impl RenderSettings {
                 format!("must lie strictly between 0 and 1, got {}", self.alpha),
             );
         }
-        match self.radius {
-            Radius::Absolute(r) if !(r.is_finite() && r > 0.0) => {
-                return err("radius", format!("must be a positive length, got {r}"));
-            }
-            Radius::Fraction(f) if !(f.is_finite() && f > 0.0 && f <= 1.0) => {
-                return err("radius_fraction", format!("must lie in (0, 1], got {f}"));
-            }
-            _ => {}
+        check_radius(self.radius, "radius", "radius_fraction")?;
+        check_radius(self.volume_radius, "volume_radius", "volume_radius_fraction")?;
+        if !(self.volume_alpha > 0.0 && self.volume_alpha < 1.0) {
+            return err(
+                "volume_alpha",
+                format!("must lie strictly between 0 and 1, got {}", self.volume_alpha),
+            );
+        }
+        if !(1..=3).contains(&self.volume_dimension) {
+            return err("volume_dimension", format!("must be 1, 2 or 3, got {}", self.volume_dimension));
         }
         if self.max_depth == 0 {
             return err("max_depth", "must be at least 1");

@@ -3,3 +3,4 @@
 pub mod kernel;
 pub mod radius;
 pub mod surface;
+pub mod volume;

@@ -7,6 +7,7 @@
 
 use super::kernel::Kernel;
 use crate::math::Rgb;
+use crate::photon::Photon;
 use crate::photon::map::PhotonGrid;
 use glam::Vec3;
 
@@ -27,7 +28,7 @@ pub struct Gather {
 
 /// Reflected radiance at `p` (normal `n`, on the viewer's side) of a diffuse surface with BRDF
 /// value `f` (albedo / π), from the photons in `map`.
-pub fn surface_radiance(map: &PhotonGrid, p: Vec3, n: Vec3, f: Rgb, g: &Gather) -> Rgb {
+pub fn surface_radiance(map: &PhotonGrid<Photon>, p: Vec3, n: Vec3, f: Rgb, g: &Gather) -> Rgb {
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;
     map.query(p, g.radius, |ph, d2| {

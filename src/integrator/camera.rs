@@ -1,17 +1,34 @@
 //! The camera pass: one jittered eye path per pixel and iteration, followed through specular
 //! events (mirror, glass with Fresnel, pass-through interfaces) to the first diffuse surface, where
 //! the photon map gives the reflected radiance. Emitters seen directly or through specular chains
-//! add their radiance.
+//! add their radiance. Along every segment inside a medium, in-scattered radiance comes from the
+//! volume photons by the beam estimate (the whole segment, then the path goes on attenuated by its
+//! transmittance) or the point estimate (at a sampled collision, where the path ends; without a
+//! collision the path goes on with the free-flight weight).
 
 use crate::estimate::surface::{Gather, surface_radiance};
+use crate::estimate::volume::{beam_radiance, point_radiance};
 use crate::math::{Rgb, offset_origin};
+use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
+use crate::photon::{Photon, VolumePhoton};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
 use crate::scene::material::Transport;
+use crate::settings::VolumeEstimate;
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// The photon maps of one iteration.
+pub struct Maps<'a> {
+    /// Surface photons.
+    pub surface: &'a PhotonGrid<Photon>,
+    /// Volume photons for point queries (used by the point estimate).
+    pub volume_points: &'a PhotonGrid<VolumePhoton>,
+    /// Volume photons for beam queries (used by the beam estimate).
+    pub volume_beams: &'a BeamMap,
+}
 
 /// Settings of one camera pass.
 #[derive(Clone, Copy, Debug)]
@@ -22,28 +39,49 @@ pub struct CameraPass {
     pub iteration: u64,
     /// Maximum scattering events per eye path.
     pub max_depth: u32,
-    /// Density estimation.
-    pub gather: Gather,
+    /// Surface density estimation.
+    pub surface: Gather,
+    /// Volume density estimation.
+    pub volume: Gather,
+    /// Beam or point estimate in media.
+    pub estimate: VolumeEstimate,
 }
 
-/// Radiance along one eye path for pixel `index`.
-fn pixel_radiance(scene: &Scene, map: &PhotonGrid, pass: &CameraPass, x: u32, y: u32) -> Rgb {
+/// Radiance along one eye path for pixel (x, y).
+fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32) -> Rgb {
     let width = scene.camera.resolution[0];
-    let mut s = Sampler::new(
-        pass.seed,
-        Purpose::Camera,
-        pass.iteration,
-        (y * width + x) as u64,
-    );
+    let mut s = Sampler::new(pass.seed, Purpose::Camera, pass.iteration, (y * width + x) as u64);
     let pixel = Vec2::new(x as f32, y as f32) + s.next_2d();
     let ray = scene.camera.generate_ray(pixel, s.next_2d());
     let (mut o, mut d) = (ray.o, ray.d);
+    let mut medium = scene.camera_medium;
     let mut beta = Rgb::ONE;
     let mut l = Rgb::ZERO;
     for _ in 0..pass.max_depth {
-        let Some(hit) = scene.intersect(o, d, f32::INFINITY) else {
-            break;
-        };
+        let hit = scene.intersect(o, d, f32::INFINITY);
+        if let Some(id) = medium {
+            let m = &scene.media[id as usize];
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+            match pass.estimate {
+                VolumeEstimate::Beam => {
+                    l += beta * beam_radiance(maps.volume_beams, m, id, o, d, t_max, &pass.volume);
+                    beta *= m.transmittance(o, d, t_max);
+                }
+                VolumeEstimate::Point => {
+                    let flight = m.sample_free_flight(o, d, t_max, [s.next_f32(), s.next_f32()]);
+                    beta *= flight.weight;
+                    if flight.scattered {
+                        let x = o + d * flight.t;
+                        l += beta * point_radiance(maps.volume_points, m, id, x, d, &pass.volume);
+                        break;
+                    }
+                }
+            }
+            if beta.max_element() <= 0.0 {
+                break;
+            }
+        }
+        let Some(hit) = hit else { break };
         let wo = -d;
         let shape = &scene.shapes[hit.tag as usize];
         if let Some(le) = shape.emission {
@@ -53,25 +91,20 @@ fn pixel_radiance(scene: &Scene, map: &PhotonGrid, pass: &CameraPass, x: u32, y:
         }
         let material = &scene.materials[shape.material as usize];
         if material.is_diffuse() {
-            let n = if wo.dot(hit.ng) >= 0.0 {
-                hit.ng
-            } else {
-                -hit.ng
-            };
-            l += beta * surface_radiance(map, hit.p, n, material.diffuse_f(), &pass.gather);
+            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+            let f = material.diffuse_f();
+            l += beta * surface_radiance(maps.surface, hit.p, n, f, &pass.surface);
             break;
         }
-        let Some(bs) = material.sample(
-            wo,
-            hit.ng,
-            hit.ns,
-            s.next_2d(),
-            s.next_f32(),
-            Transport::Radiance,
-        ) else {
+        let Some(bs) =
+            material.sample(wo, hit.ng, hit.ns, s.next_2d(), s.next_f32(), Transport::Radiance)
+        else {
             break;
         };
         beta *= bs.weight;
+        if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
+            medium = shape.medium_after(medium, bs.wi, hit.ng);
+        }
         o = offset_origin(hit.p, hit.ng, bs.wi);
         d = bs.wi;
     }
@@ -82,29 +115,26 @@ fn pixel_radiance(scene: &Scene, map: &PhotonGrid, pass: &CameraPass, x: u32, y:
 /// before it finished. Non-finite samples are replaced by black and counted in `nonfinite`.
 pub fn render_pass(
     scene: &Scene,
-    map: &PhotonGrid,
+    maps: &Maps,
     pass: &CameraPass,
     stop: &AtomicBool,
     nonfinite: &AtomicU64,
     image: &mut [Rgb],
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    image
-        .par_chunks_mut(width)
-        .enumerate()
-        .for_each(|(y, row)| {
-            if stop.load(Ordering::Relaxed) {
-                return;
-            }
-            for (x, px) in row.iter_mut().enumerate() {
-                let l = pixel_radiance(scene, map, pass, x as u32, y as u32);
-                *px = if l.is_finite() {
-                    l
-                } else {
-                    nonfinite.fetch_add(1, Ordering::Relaxed);
-                    Rgb::ZERO
-                };
-            }
-        });
+    image.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
+        for (x, px) in row.iter_mut().enumerate() {
+            let l = pixel_radiance(scene, maps, pass, x as u32, y as u32);
+            *px = if l.is_finite() {
+                l
+            } else {
+                nonfinite.fetch_add(1, Ordering::Relaxed);
+                Rgb::ZERO
+            };
+        }
+    });
     !stop.load(Ordering::Relaxed)
 }

@@ -4,24 +4,25 @@
 //! photon map into the buffers of the previous one (memory stays constant) and renders one
 //! jittered eye path per pixel.
 
-use super::camera::{CameraPass, render_pass};
+use super::camera::{CameraPass, Maps, render_pass};
 use crate::error::{Error, Result};
 use crate::estimate::radius::radius;
 use crate::estimate::surface::Gather;
 use crate::film::Film;
 use crate::math::Rgb;
 use crate::output::{Image, RenderInfo};
+use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
-use crate::photon::trace::{LightSampler, PhotonPass, trace_photons};
+use crate::photon::trace::{LightSampler, PhotonPass, Photons, trace_photons};
 use crate::progress::{Progress, Status};
 use crate::scene::Scene;
-use crate::settings::{Radius, RenderSettings};
+use crate::settings::{Radius, RenderSettings, VolumeEstimate};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
-/// Initial surface radius of `settings` in `scene`'s units.
-pub fn initial_radius(scene: &Scene, settings: &RenderSettings) -> f64 {
-    match settings.radius {
+/// A radius setting in `scene`'s units.
+pub fn resolve_radius(scene: &Scene, radius: Radius) -> f64 {
+    match radius {
         Radius::Absolute(r) => r,
         Radius::Fraction(f) => f * scene.diagonal() as f64,
     }
@@ -41,15 +42,18 @@ pub fn render(
         .map_err(|e| Error::Settings(format!("{}: {}", e.key, e.message)))?;
     let start = Instant::now();
     let [width, height] = scene.camera.resolution;
-    let r1 = initial_radius(scene, settings);
+    let r1 = resolve_radius(scene, settings.radius);
+    let r1_vol = resolve_radius(scene, settings.volume_radius);
     let lights = LightSampler::new(scene);
     let mut film = Film::new(width, height);
-    let mut photons = Vec::new();
-    let mut map = PhotonGrid::new();
+    let mut photons = Photons::default();
+    let mut surface_map = PhotonGrid::default();
+    let mut volume_points = PhotonGrid::default();
+    let mut volume_beams = BeamMap::new();
     let mut image = vec![Rgb::ZERO; (width * height) as usize];
     let nonfinite = AtomicU64::new(0);
     let mut light_paths = 0u64;
-    let mut last_radius = r1;
+    let mut last: Option<RenderInfo> = None;
     let mut iteration = 0u64;
     loop {
         if settings.iterations.is_some_and(|n| iteration >= n)
@@ -62,6 +66,7 @@ pub fn render(
         }
         let i = iteration + 1;
         let r = radius(i, r1, settings.alpha, 2);
+        let r_vol = radius(i, r1_vol, settings.volume_alpha, settings.volume_dimension);
         let t0 = Instant::now();
         let pass = PhotonPass {
             seed: settings.seed,
@@ -72,50 +77,87 @@ pub fn render(
         if !trace_photons(scene, &lights, &pass, stop, &mut photons) {
             break;
         }
-        map.build(&photons, r as f32);
+        surface_map.build(&photons.surface, r as f32);
+        match settings.volume_estimate {
+            VolumeEstimate::Beam => volume_beams.build(&photons.volume, r_vol as f32),
+            VolumeEstimate::Point => volume_points.build(&photons.volume, r_vol as f32),
+        }
         let t1 = Instant::now();
         let camera = CameraPass {
             seed: settings.seed,
             iteration: i,
             max_depth: settings.max_depth,
-            gather: Gather {
+            surface: Gather {
                 radius: r as f32,
                 kernel: settings.kernel,
                 inv_paths: 1.0 / settings.photons as f32,
             },
+            volume: Gather {
+                radius: r_vol as f32,
+                kernel: settings.kernel,
+                inv_paths: 1.0 / settings.photons as f32,
+            },
+            estimate: settings.volume_estimate,
         };
-        if !render_pass(scene, &map, &camera, stop, &nonfinite, &mut image) {
+        let maps = Maps {
+            surface: &surface_map,
+            volume_points: &volume_points,
+            volume_beams: &volume_beams,
+        };
+        if !render_pass(scene, &maps, &camera, stop, &nonfinite, &mut image) {
             break;
         }
         let t2 = Instant::now();
         film.add(&image);
         iteration = i;
         light_paths += settings.photons;
-        last_radius = r;
+        let info = RenderInfo {
+            iterations: iteration,
+            light_paths,
+            initial_radius: r1,
+            radius: r,
+            alpha: settings.alpha,
+            volume_initial_radius: r1_vol,
+            volume_radius: r_vol,
+            volume_alpha: settings.volume_alpha,
+            volume_dimension: settings.volume_dimension,
+            volume_estimate: settings.volume_estimate,
+            kernel: settings.kernel,
+            seed: settings.seed,
+            elapsed: start.elapsed().as_secs_f64(),
+            scene: scene.source.clone(),
+            nonfinite_samples: nonfinite.load(Ordering::Relaxed),
+        };
         progress.iteration(&Status {
-            iteration,
             target_iterations: settings.iterations,
             time_limit: settings.time_limit,
-            elapsed: start.elapsed().as_secs_f64(),
-            radius: r,
-            light_paths,
-            photons_stored: photons.len() as u64,
+            photons_stored: photons.surface.len() as u64,
+            volume_photons_stored: photons.volume.len() as u64,
             photon_seconds: (t1 - t0).as_secs_f64(),
             camera_seconds: (t2 - t1).as_secs_f64(),
             film: &film,
+            info: &info,
         });
+        last = Some(info);
     }
-    let info = RenderInfo {
-        iterations: iteration,
-        light_paths,
+    let mut info = last.unwrap_or(RenderInfo {
+        iterations: 0,
+        light_paths: 0,
         initial_radius: r1,
-        radius: last_radius,
+        radius: r1,
         alpha: settings.alpha,
+        volume_initial_radius: r1_vol,
+        volume_radius: r1_vol,
+        volume_alpha: settings.volume_alpha,
+        volume_dimension: settings.volume_dimension,
+        volume_estimate: settings.volume_estimate,
         kernel: settings.kernel,
         seed: settings.seed,
-        elapsed: start.elapsed().as_secs_f64(),
+        elapsed: 0.0,
         scene: scene.source.clone(),
-        nonfinite_samples: nonfinite.load(Ordering::Relaxed),
-    };
+        nonfinite_samples: 0,
+    });
+    info.elapsed = start.elapsed().as_secs_f64();
+    info.nonfinite_samples = nonfinite.load(Ordering::Relaxed);
     Ok(Image::from_film(&film, info))
 }

@@ -5,18 +5,23 @@
 //! Cells are hashed into a table of 2ⁿ ≥ 2·(photon count) buckets; photons are counting-sorted
 //! by bucket, which keeps the build O(N) and deterministic (stable in photon order).
 
-use super::Photon;
+use super::Located;
 use glam::{IVec3, Vec3};
 
 /// The photon grid.
-#[derive(Default)]
-pub struct PhotonGrid {
+pub struct PhotonGrid<P> {
     inv_cell: f32,
     mask: usize,
     /// start[b]..start[b + 1] indexes `photons` for bucket b.
     start: Vec<u32>,
-    photons: Vec<Photon>,
+    photons: Vec<P>,
     keys: Vec<u32>,
+}
+
+impl<P> Default for PhotonGrid<P> {
+    fn default() -> Self {
+        Self { inv_cell: 1.0, mask: 0, start: Vec::new(), photons: Vec::new(), keys: Vec::new() }
+    }
 }
 
 #[inline]
@@ -28,7 +33,7 @@ fn hash(c: IVec3) -> usize {
     (h ^ (h >> 15)).wrapping_mul(0x2c1b_3c6d) as usize
 }
 
-impl PhotonGrid {
+impl<P: Located + Copy + Default> PhotonGrid<P> {
     /// An empty grid.
     pub fn new() -> Self {
         Self::default()
@@ -45,7 +50,7 @@ impl PhotonGrid {
     }
 
     /// Rebuilds the grid over `photons` for queries of radius `radius`.
-    pub fn build(&mut self, photons: &[Photon], radius: f32) {
+    pub fn build(&mut self, photons: &[P], radius: f32) {
         let cell = (2.0 * radius).max(1e-20);
         self.inv_cell = 1.0 / cell;
         let buckets = (2 * photons.len()).next_power_of_two().max(16);
@@ -55,7 +60,7 @@ impl PhotonGrid {
         keys.extend(
             photons
                 .iter()
-                .map(|ph| self.bucket(self.cell_of(ph.p)) as u32),
+                .map(|ph| self.bucket(self.cell_of(ph.position())) as u32),
         );
         self.keys = keys;
         self.start.clear();
@@ -67,7 +72,7 @@ impl PhotonGrid {
             self.start[b + 1] += self.start[b];
         }
         self.photons.clear();
-        self.photons.resize(photons.len(), Photon::default());
+        self.photons.resize(photons.len(), P::default());
         // Scatter with a moving cursor per bucket (reuse `start` shifted by one slot).
         let mut cursor = self.start[..buckets].to_vec();
         for (ph, &k) in photons.iter().zip(&self.keys) {
@@ -90,7 +95,7 @@ impl PhotonGrid {
     /// Calls `f(photon, squared distance)` for every photon within `radius` of `p`. `radius`
     /// must not exceed the radius the grid was built for.
     #[inline]
-    pub fn query(&self, p: Vec3, radius: f32, mut f: impl FnMut(&Photon, f32)) {
+    pub fn query(&self, p: Vec3, radius: f32, mut f: impl FnMut(&P, f32)) {
         if self.photons.is_empty() {
             return;
         }
@@ -118,7 +123,7 @@ impl PhotonGrid {
                     }
                     let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
                     for ph in &self.photons[s..e] {
-                        let d2 = (ph.p - p).length_squared();
+                        let d2 = (ph.position() - p).length_squared();
                         if d2 < r2 {
                             f(ph, d2);
                         }
@@ -132,6 +137,7 @@ impl PhotonGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::photon::Photon;
     use crate::rng::{Purpose, Sampler};
 
     #[test]

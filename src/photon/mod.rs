@@ -1,5 +1,6 @@
 //! The photon pass and the photon maps.
 
+pub mod beam;
 pub mod map;
 pub mod trace;
 
@@ -23,4 +24,42 @@ pub struct Photon {
     pub n: Vec3,
     /// Power (W per emitted path, see above).
     pub beta: Rgb,
+}
+
+/// A photon stored in a medium, at a real collision of a light path.
+///
+/// Power convention (DESIGN §4): `beta` is the light path's throughput **after** division by the
+/// free-flight pdf of this collision — β · T(t)/p(t) — and **before** the scattering albedo:
+/// estimates multiply by σ_s(x) and the phase function when merging. Like surface photons, it is
+/// in watts per emitted light path (divide sums by the number of emitted paths).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct VolumePhoton {
+    /// Position.
+    pub p: Vec3,
+    /// Direction of travel of the photon when it collided (unit).
+    pub d: Vec3,
+    /// Power (see above).
+    pub beta: Rgb,
+    /// The medium it is in.
+    pub medium: u32,
+}
+
+/// Anything with a position, so the grid can hold surface and volume photons.
+pub trait Located {
+    /// Position.
+    fn position(&self) -> Vec3;
+}
+
+impl Located for Photon {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
+}
+
+impl Located for VolumePhoton {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
 }

@@ -1,11 +1,11 @@
-//! The photon pass: light paths from the lights, through specular and diffuse bounces, leaving
-//! photons on diffuse surfaces.
+//! The photon pass: light paths from the lights, through specular and diffuse bounces and through
+//! media, leaving photons on diffuse surfaces and at real collisions in media.
 //!
 //! Paths are traced in parallel in fixed chunks; each path draws from its own random stream
-//! (seed, iteration, path index), and chunks are concatenated in order, so the photon list is the
+//! (seed, iteration, path index), and chunks are concatenated in order, so the photon lists are the
 //! same whatever the thread count.
 
-use super::Photon;
+use super::{Photon, VolumePhoton};
 use crate::math::{Rgb, luminance, offset_origin};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
@@ -45,10 +45,7 @@ impl LightSampler {
     /// A light index and its probability.
     pub fn pick(&self, u: f32) -> (usize, f32) {
         let target = u * self.total;
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= target)
-            .min(self.cdf.len() - 1);
+        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         (i, (self.cdf[i] - lo) / self.total)
     }
@@ -67,14 +64,25 @@ pub struct PhotonPass {
     pub max_depth: u32,
 }
 
-/// Traces one light path, calling `store` for every photon it leaves.
-fn trace_path(
-    scene: &Scene,
-    lights: &LightSampler,
-    pass: &PhotonPass,
-    index: u64,
-    store: &mut impl FnMut(Photon),
-) {
+/// Photons left by a pass.
+#[derive(Default)]
+pub struct Photons {
+    /// On diffuse surfaces.
+    pub surface: Vec<Photon>,
+    /// In media.
+    pub volume: Vec<VolumePhoton>,
+}
+
+/// Russian roulette after an event that turned throughput `before` into `after`: survive with
+/// probability min(1, max(after)/max(before)), so survivors keep about their power.
+#[inline]
+fn roulette(before: Rgb, after: Rgb, u: f32) -> Option<Rgb> {
+    let q = (after.max_element() / before.max_element()).min(1.0);
+    if q > 0.0 && u < q { Some(after / q) } else { None }
+}
+
+/// Traces one light path, storing its photons in `out`.
+fn trace_path(scene: &Scene, lights: &LightSampler, pass: &PhotonPass, index: u64, out: &mut Photons) {
     let mut s = Sampler::new(pass.seed, Purpose::Photon, pass.iteration, index);
     let (li, p_light) = lights.pick(s.next_f32());
     let e = scene.lights[li].sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
@@ -82,44 +90,53 @@ fn trace_path(
     if beta.max_element() <= 0.0 {
         return;
     }
-    let mut o = if e.n == glam::Vec3::ZERO {
-        e.p
-    } else {
-        offset_origin(e.p, e.n, e.d)
-    };
+    let mut medium = scene.light_media[li];
+    let mut o = if e.n == glam::Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
     let mut d = e.d;
     for _ in 0..pass.max_depth {
-        let Some(hit) = scene.intersect(o, d, f32::INFINITY) else {
-            return;
-        };
+        let hit = scene.intersect(o, d, f32::INFINITY);
+        if let Some(id) = medium {
+            let m = &scene.media[id as usize];
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+            let flight = m.sample_free_flight(o, d, t_max, [s.next_f32(), s.next_f32()]);
+            if flight.scattered {
+                let p = o + d * flight.t;
+                beta *= flight.weight;
+                // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s.
+                out.volume.push(VolumePhoton { p, d, beta, medium: id });
+                let ps = m.phase().sample(d, s.next_2d());
+                // Phase sampling is exact, so the scattering weight is σ_s alone.
+                let Some(b) = roulette(beta, beta * m.sigma_s(p), s.next_f32()) else { return };
+                beta = b;
+                o = p;
+                d = ps.d_out;
+                continue;
+            }
+            beta *= flight.weight;
+            if beta.max_element() <= 0.0 {
+                return;
+            }
+        }
+        let Some(hit) = hit else { return };
         let wo = -d;
-        let material = scene.material_of(&hit);
+        let shape = &scene.shapes[hit.tag as usize];
+        let material = &scene.materials[shape.material as usize];
         if material.is_diffuse() {
             // Power convention (see `Photon`): store the path throughput as it arrives.
-            let n = if wo.dot(hit.ng) >= 0.0 {
-                hit.ng
-            } else {
-                -hit.ng
-            };
-            store(Photon {
-                p: hit.p,
-                wi: wo,
-                n,
-                beta,
-            });
+            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+            out.surface.push(Photon { p: hit.p, wi: wo, n, beta });
         }
         let u = s.next_2d();
         let u_lobe = s.next_f32();
-        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance) else {
+        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance)
+        else {
             return;
         };
-        // Russian roulette with survival probability = the bounce's largest channel weight, so
-        // a surviving photon keeps (about) its power.
-        let q = bs.weight.max_element().min(1.0);
-        if q <= 0.0 || s.next_f32() >= q {
-            return;
+        let Some(b) = roulette(beta, beta * bs.weight, s.next_f32()) else { return };
+        beta = b;
+        if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
+            medium = shape.medium_after(medium, bs.wi, hit.ng);
         }
-        beta *= bs.weight / q;
         o = offset_origin(hit.p, hit.ng, bs.wi);
         d = bs.wi;
     }
@@ -132,30 +149,34 @@ pub fn trace_photons(
     lights: &LightSampler,
     pass: &PhotonPass,
     stop: &AtomicBool,
-    out: &mut Vec<Photon>,
+    out: &mut Photons,
 ) -> bool {
-    out.clear();
+    out.surface.clear();
+    out.volume.clear();
     if lights.is_empty() {
         return true;
     }
     let chunks = pass.paths.div_ceil(CHUNK);
-    let parts: Vec<Option<Vec<Photon>>> = (0..chunks)
+    let parts: Vec<Option<Photons>> = (0..chunks)
         .into_par_iter()
         .map(|c| {
             if stop.load(Ordering::Relaxed) {
                 return None;
             }
-            let mut local = Vec::with_capacity(CHUNK as usize * 2);
+            let mut local = Photons::default();
             let end = ((c + 1) * CHUNK).min(pass.paths);
             for index in c * CHUNK..end {
-                trace_path(scene, lights, pass, index, &mut |p| local.push(p));
+                trace_path(scene, lights, pass, index, &mut local);
             }
             Some(local)
         })
         .collect();
     for part in parts {
         match part {
-            Some(p) => out.extend_from_slice(&p),
+            Some(p) => {
+                out.surface.extend_from_slice(&p.surface);
+                out.volume.extend_from_slice(&p.volume);
+            }
             None => return false,
         }
     }

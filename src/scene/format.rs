@@ -29,6 +29,7 @@ pub struct PerspectiveDef {
     pub resolution: [u32; 2],
     pub aperture: Option<f32>,
     pub focus_distance: Option<f32>,
+    pub medium: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -41,6 +42,7 @@ pub struct OrthographicDef {
     pub up: Option<[f32; 3]>,
     pub height: f32,
     pub resolution: [u32; 2],
+    pub medium: Option<String>,
 }
 
 #[derive(Debug)]
@@ -61,6 +63,28 @@ pub struct RenderDef {
     pub kernel: Option<String>,
     pub max_depth: Option<u32>,
     pub seed: Option<u64>,
+    pub volume_estimate: Option<String>,
+    pub volume_alpha: Option<f64>,
+    pub volume_radius: Option<f64>,
+    pub volume_radius_fraction: Option<f64>,
+    pub volume_dimension: Option<u32>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomogeneousDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub sigma_a: Option<ColorDef>,
+    pub sigma_s: Option<ColorDef>,
+    pub albedo: Option<ColorDef>,
+    pub sigma_t: Option<ColorDef>,
+    pub g: Option<f32>,
+}
+
+#[derive(Debug)]
+pub enum MediumDef {
+    Homogeneous(HomogeneousDef),
 }
 
 #[derive(Debug, Deserialize)]
@@ -132,6 +156,8 @@ macro_rules! shape_def {
             pub emission: Option<ColorDef>,
             #[serde(default)]
             pub transform: TransformDef,
+            pub interior: Option<String>,
+            pub exterior: Option<String>,
         }
     };
 }
@@ -155,6 +181,19 @@ pub enum ShapeDef {
     Obj(ObjDef),
 }
 
+impl ShapeDef {
+    /// The `interior` and `exterior` medium names.
+    pub fn media(&self) -> (Option<&String>, Option<&String>) {
+        match self {
+            ShapeDef::Rectangle(d) => (d.interior.as_ref(), d.exterior.as_ref()),
+            ShapeDef::Box(d) => (d.interior.as_ref(), d.exterior.as_ref()),
+            ShapeDef::Sphere(d) => (d.interior.as_ref(), d.exterior.as_ref()),
+            ShapeDef::Mesh(d) => (d.interior.as_ref(), d.exterior.as_ref()),
+            ShapeDef::Obj(d) => (d.interior.as_ref(), d.exterior.as_ref()),
+        }
+    }
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PointDef {
@@ -162,6 +201,7 @@ pub struct PointDef {
     pub _kind: String,
     pub position: [f32; 3],
     pub power: ColorDef,
+    pub medium: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -174,6 +214,7 @@ pub struct SpotDef {
     pub power: ColorDef,
     pub cone_angle: f32,
     pub falloff_start: Option<f32>,
+    pub medium: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -183,6 +224,7 @@ pub struct DirectionalDef {
     pub _kind: String,
     pub direction: [f32; 3],
     pub irradiance: ColorDef,
+    pub medium: Option<String>,
 }
 
 #[derive(Debug)]
@@ -198,6 +240,7 @@ pub struct SceneFile {
     pub camera: (CameraDef, std::ops::Range<usize>),
     pub render: Option<(RenderDef, std::ops::Range<usize>)>,
     pub materials: Vec<(String, MaterialDef, std::ops::Range<usize>)>,
+    pub media: Vec<(String, MediumDef, std::ops::Range<usize>)>,
     pub shapes: Vec<(ShapeDef, std::ops::Range<usize>)>,
     pub lights: Vec<(LightDef, std::ops::Range<usize>)>,
 }
@@ -288,12 +331,12 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
     let root = root.get_ref();
     for (k, v) in root.iter() {
         let k = k.get_ref().as_ref();
-        if !["camera", "render", "materials", "shapes", "lights"].contains(&k) {
+        if !["camera", "render", "materials", "media", "shapes", "lights"].contains(&k) {
             return Err(error(
                 k,
                 v.span().start,
                 format!(
-                    "unknown section `{k}`; expected camera, render, materials, shapes or lights"
+                    "unknown section `{k}`; expected camera, render, materials, media, shapes or lights"
                 ),
             ));
         }
@@ -335,6 +378,32 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
             materials.push((name, def, v.span()));
         }
     }
+    let mut media = Vec::new();
+    if let Some(m) = root.get("media") {
+        let table = m
+            .get_ref()
+            .as_table()
+            .ok_or_else(|| error("media", m.span().start, "expected a table of named media"))?;
+        for (name, v) in table.iter() {
+            let name = name.get_ref().to_string();
+            let key = format!("media.{name}");
+            kind(v, &key, &["homogeneous"])?;
+            media.push((name, MediumDef::Homogeneous(typed(v, &key)?), v.span()));
+        }
+    }
+    let mut media = Vec::new();
+    if let Some(m) = root.get("media") {
+        let table = m
+            .get_ref()
+            .as_table()
+            .ok_or_else(|| error("media", m.span().start, "expected a table of named media"))?;
+        for (name, v) in table.iter() {
+            let name = name.get_ref().to_string();
+            let key = format!("media.{name}");
+            kind(v, &key, &["homogeneous"])?;
+            media.push((name, MediumDef::Homogeneous(typed(v, &key)?), v.span()));
+        }
+    }
     let mut shapes = Vec::new();
     if let Some(s) = root.get("shapes") {
         for (i, v) in array(s, "shapes")?.iter().enumerate() {
@@ -365,6 +434,7 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         camera: (camera_def, camera.span()),
         render,
         materials,
+        media,
         shapes,
         lights,
     })

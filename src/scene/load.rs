@@ -3,13 +3,16 @@
 
 use super::camera::{Camera, Projection};
 use super::format::{
-    self, BoxDef, CameraDef, ColorDef, LightDef, MaterialDef, MeshDef, ObjDef, OrthographicDef,
+    self, BoxDef, CameraDef, ColorDef, LightDef, MaterialDef, MediumDef, HomogeneousDef, MeshDef, ObjDef, OrthographicDef,
     PerspectiveDef, RectangleDef, RenderDef, ScaleDef, SceneFile, ShapeDef, SphereDef,
     TransformDef,
 };
 use super::material::Material;
 use super::shape::{self, Mesh};
-use super::{Geometry, LightDesc, Scene, SceneBuilder};
+use super::{Geometry, LightDesc, MediumInterface, Scene, SceneBuilder};
+use crate::medium::Medium;
+use crate::medium::homogeneous::Homogeneous;
+use crate::medium::phase::HenyeyGreenstein;
 use crate::error::{Error, Result};
 use crate::math::Rgb;
 use crate::settings::{Radius, RenderSettings};
@@ -105,9 +108,10 @@ pub(super) fn load_str(text: &str, path: &Path, base_dir: &Path) -> Result<Scene
         places.tables.push(("render".into(), span.clone()));
     }
     for (name, _, span) in &file.materials {
-        places
-            .tables
-            .push((format!("materials.{name}"), span.clone()));
+        places.tables.push((format!("materials.{name}"), span.clone()));
+    }
+    for (name, _, span) in &file.media {
+        places.tables.push((format!("media.{name}"), span.clone()));
     }
     for (i, (_, span)) in file.shapes.iter().enumerate() {
         places.tables.push((format!("shapes[{i}]"), span.clone()));
@@ -119,16 +123,15 @@ pub(super) fn load_str(text: &str, path: &Path, base_dir: &Path) -> Result<Scene
 }
 
 fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
-    let camera = camera(&file.camera.0, places)?;
+    let camera_def = &file.camera.0;
+    let camera = camera(camera_def, places)?;
     let mut b = SceneBuilder::new(camera);
     b.source(places.path.to_path_buf());
     let settings = settings(file.render.as_ref().map(|r| &r.0), places)?;
     b.settings(settings)?;
     for (name, m, _) in &file.materials {
         let m = match m {
-            MaterialDef::Diffuse(d) => Material::Diffuse {
-                albedo: color(d.albedo),
-            },
+            MaterialDef::Diffuse(d) => Material::Diffuse { albedo: color(d.albedo) },
             MaterialDef::Mirror(d) => Material::Mirror {
                 reflectance: d.reflectance.map(color).unwrap_or(Vec3::ONE),
             },
@@ -137,7 +140,49 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
         };
         b.material(name, m)?;
     }
+    for (name, m, _) in &file.media {
+        let MediumDef::Homogeneous(d) = m;
+        b.medium(name, homogeneous(d, &format!("media.{name}"), places)?)?;
+    }
+    let known_media: Vec<&String> = file.media.iter().map(|(n, _, _)| n).collect();
+    let medium = |key: String, name: Option<&String>| -> Result<Option<u32>> {
+        match name {
+            None => Ok(None),
+            Some(n) => b.medium_index(n).map(Some).ok_or_else(|| {
+                places.error(key, format!("undefined medium `{n}` (defined: {known_media:?})"))
+            }),
+        }
+    };
+    let camera_medium = match camera_def {
+        CameraDef::Perspective(d) => d.medium.as_ref(),
+        CameraDef::Orthographic(d) => d.medium.as_ref(),
+    };
+    let camera_medium = medium("camera.medium".into(), camera_medium)?;
+    let mut shapes = Vec::new();
     for (i, (s, _)) in file.shapes.iter().enumerate() {
+        let label = format!("shapes[{i}]");
+        let (interior, exterior) = s.media();
+        let interface = if interior.is_none() && exterior.is_none() {
+            None
+        } else {
+            Some(MediumInterface {
+                interior: medium(format!("{label}.interior"), interior)?,
+                exterior: medium(format!("{label}.exterior"), exterior)?,
+            })
+        };
+        shapes.push(interface);
+    }
+    let mut light_media = Vec::new();
+    for (i, (l, _)) in file.lights.iter().enumerate() {
+        let name = match l {
+            LightDef::Point(d) => d.medium.as_ref(),
+            LightDef::Spot(d) => d.medium.as_ref(),
+            LightDef::Directional(d) => d.medium.as_ref(),
+        };
+        light_media.push(medium(format!("lights[{i}].medium"), name)?);
+    }
+    b.camera_medium(camera_medium)?;
+    for (i, ((s, _), interface)) in file.shapes.iter().zip(shapes).enumerate() {
         let label = format!("shapes[{i}]");
         let (geometry, material, emission) = shape(s, &label, places, base_dir)?;
         let m = b.material_index(material).ok_or_else(|| {
@@ -147,14 +192,13 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
                 format!("undefined material `{material}` (defined: {known:?})"),
             )
         })?;
-        b.shape(geometry, m, emission.map(color))?;
+        b.shape_with_media(geometry, m, emission.map(color), interface)?;
     }
-    for (l, _) in &file.lights {
-        b.light(match l {
-            LightDef::Point(d) => LightDesc::Point {
-                position: d.position.into(),
-                power: color(d.power),
-            },
+    for ((l, _), medium) in file.lights.iter().zip(light_media) {
+        let desc = match l {
+            LightDef::Point(d) => {
+                LightDesc::Point { position: d.position.into(), power: color(d.power) }
+            }
             LightDef::Spot(d) => LightDesc::Spot {
                 position: d.position.into(),
                 look_at: d.look_at.into(),
@@ -166,9 +210,43 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
                 direction: d.direction.into(),
                 irradiance: color(d.irradiance),
             },
-        })?;
+        };
+        b.light_in(desc, medium)?;
     }
     b.build()
+}
+
+/// A homogeneous medium from either (σ_a, σ_s) or (albedo, σ_t).
+fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium> {
+    let err = |k: &str, m: &str| places.error(format!("{key}.{k}"), m.to_string());
+    let (sigma_a, sigma_s) = match (d.sigma_a, d.sigma_s, d.albedo, d.sigma_t) {
+        (Some(a), Some(s), None, None) => (color(a), color(s)),
+        (None, None, Some(albedo), Some(t)) => {
+            let (albedo, t) = (color(albedo), color(t));
+            if !albedo.is_finite() || albedo.min_element() < 0.0 || albedo.max_element() > 1.0 {
+                return Err(err("albedo", &format!("must lie in [0, 1], got {albedo}")));
+            }
+            if !t.is_finite() || t.min_element() < 0.0 {
+                return Err(err("sigma_t", &format!("must be finite and non-negative, got {t}")));
+            }
+            ((Vec3::ONE - albedo) * t, albedo * t)
+        }
+        (None, None, None, None) => {
+            return Err(err("sigma_s", "give sigma_a and sigma_s, or albedo and sigma_t"));
+        }
+        (Some(_), None, ..) => return Err(err("sigma_s", "sigma_a needs sigma_s")),
+        (None, Some(_), ..) => return Err(err("sigma_a", "sigma_s needs sigma_a")),
+        (None, None, Some(_), None) => return Err(err("sigma_t", "albedo needs sigma_t")),
+        (None, None, None, Some(_)) => return Err(err("albedo", "sigma_t needs albedo")),
+        _ => {
+            return Err(err(
+                "albedo",
+                "give either sigma_a and sigma_s, or albedo and sigma_t, not both pairs",
+            ));
+        }
+    };
+    let g = d.g.unwrap_or(0.0);
+    Ok(Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase: HenyeyGreenstein { g } }))
 }
 
 /// Largest image: 64 Mpixel (the film holds 24 bytes per pixel).
@@ -285,6 +363,24 @@ fn settings(def: Option<&RenderDef>, places: &Places) -> Result<RenderSettings> 
     }
     s.max_depth = d.max_depth.unwrap_or(s.max_depth);
     s.seed = d.seed.unwrap_or(s.seed);
+    if let Some(e) = &d.volume_estimate {
+        s.volume_estimate =
+            e.parse().map_err(|m: String| places.error("render.volume_estimate".into(), m))?;
+    }
+    s.volume_alpha = d.volume_alpha.unwrap_or(s.volume_alpha);
+    if d.volume_radius.is_some() && d.volume_radius_fraction.is_some() {
+        return Err(places.error(
+            "render.volume_radius".into(),
+            "give `volume_radius` or `volume_radius_fraction`, not both",
+        ));
+    }
+    if let Some(r) = d.volume_radius {
+        s.volume_radius = Radius::Absolute(r);
+    }
+    if let Some(f) = d.volume_radius_fraction {
+        s.volume_radius = Radius::Fraction(f);
+    }
+    s.volume_dimension = d.volume_dimension.unwrap_or(s.volume_dimension);
     Ok(s)
 }
 

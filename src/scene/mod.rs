@@ -14,10 +14,29 @@ use crate::math::Rgb;
 use crate::settings::RenderSettings;
 use camera::Camera;
 use glam::Vec3;
+use crate::medium::Medium;
 use light::{Emitter, Light};
 use material::Material;
 use shape::Mesh;
 use std::path::{Path, PathBuf};
+
+/// The media on the two sides of a shape's surface (pbrt's medium interface). The exterior is
+/// the side the surface normals point to; `None` is vacuum.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MediumInterface {
+    /// Medium behind the surface (inside a closed shape).
+    pub interior: Option<u32>,
+    /// Medium in front of the surface.
+    pub exterior: Option<u32>,
+}
+
+impl MediumInterface {
+    /// The medium on the side that direction `w` points to, for geometric normal `ng`.
+    #[inline]
+    pub fn side(&self, w: Vec3, ng: Vec3) -> Option<u32> {
+        if w.dot(ng) >= 0.0 { self.exterior } else { self.interior }
+    }
+}
 
 /// A shape's non-geometric properties.
 #[derive(Clone, Debug)]
@@ -28,10 +47,20 @@ pub struct Shape {
     pub material: u32,
     /// Emitted radiance from the front side, if the shape is an area light.
     pub emission: Option<Rgb>,
-    /// Medium inside the shape (the slot participating media fill; `None`: vacuum).
-    pub interior: Option<u32>,
-    /// Medium outside the shape (`None`: vacuum).
-    pub exterior: Option<u32>,
+    /// Media on either side; `None` means crossing the surface leaves the medium unchanged.
+    pub media: Option<MediumInterface>,
+}
+
+impl Shape {
+    /// The medium a path is in after leaving this surface in direction `wi`, having been in
+    /// `current`.
+    #[inline]
+    pub fn medium_after(&self, current: Option<u32>, wi: Vec3, ng: Vec3) -> Option<u32> {
+        match &self.media {
+            Some(m) => m.side(wi, ng),
+            None => current,
+        }
+    }
 }
 
 /// A renderable scene.
@@ -44,6 +73,14 @@ pub struct Scene {
     pub shapes: Vec<Shape>,
     /// Light sources, area lights included.
     pub lights: Vec<Light>,
+    /// The medium each light emits into, aligned with `lights`.
+    pub light_media: Vec<Option<u32>>,
+    /// Participating media, indexed by medium ids.
+    pub media: Vec<Medium>,
+    /// Names of the media, aligned with `media`.
+    pub medium_names: Vec<String>,
+    /// The medium around the camera.
+    pub camera_medium: Option<u32>,
     /// Render settings from the scene (the caller may override them before rendering).
     pub settings: RenderSettings,
     /// Axis-aligned bounds of geometry and lights (min, max).
@@ -153,10 +190,12 @@ pub enum Geometry {
 /// ```
 pub struct SceneBuilder {
     camera: Camera,
+    camera_medium: Option<u32>,
     settings: RenderSettings,
     materials: Vec<(String, Material)>,
+    media: Vec<(String, Medium)>,
     shapes: Vec<(Shape, Geometry)>,
-    lights: Vec<LightDesc>,
+    lights: Vec<(LightDesc, Option<u32>)>,
     source: Option<PathBuf>,
 }
 
@@ -197,8 +236,10 @@ impl SceneBuilder {
     pub fn new(camera: Camera) -> Self {
         Self {
             camera,
+            camera_medium: None,
             settings: RenderSettings::default(),
             materials: Vec::new(),
+            media: Vec::new(),
             shapes: Vec::new(),
             lights: Vec::new(),
             source: None,
@@ -241,6 +282,45 @@ impl SceneBuilder {
         Ok(self.materials.len() as u32 - 1)
     }
 
+    /// Adds a named participating medium; returns its id.
+    pub fn medium(&mut self, name: &str, medium: Medium) -> Result<u32> {
+        if self.media.iter().any(|(n, _)| n == name) {
+            return Err(invalid(format!("media.{name}"), "defined twice"));
+        }
+        let key = |k: &str| format!("media.{name}.{k}");
+        match &medium {
+            Medium::Homogeneous(h) => {
+                check_color(key("sigma_a"), h.sigma_a, None)?;
+                check_color(key("sigma_s"), h.sigma_s, None)?;
+                let g = h.phase.g;
+                if !(g > -1.0 && g < 1.0) {
+                    return Err(invalid(key("g"), format!("must lie strictly between -1 and 1, got {g}")));
+                }
+            }
+        }
+        self.media.push((name.to_string(), medium));
+        Ok(self.media.len() as u32 - 1)
+    }
+
+    /// Id of a medium by name.
+    pub fn medium_index(&self, name: &str) -> Option<u32> {
+        self.media.iter().position(|(n, _)| n == name).map(|i| i as u32)
+    }
+
+    /// Sets the medium around the camera (default: vacuum).
+    pub fn camera_medium(&mut self, medium: Option<u32>) -> Result<()> {
+        self.check_medium_id("camera.medium".into(), medium)?;
+        self.camera_medium = medium;
+        Ok(())
+    }
+
+    fn check_medium_id(&self, key: String, medium: Option<u32>) -> Result<()> {
+        match medium {
+            Some(m) if m as usize >= self.media.len() => Err(invalid(key, "no such medium")),
+            _ => Ok(()),
+        }
+    }
+
     /// Index of a material by name.
     pub fn material_index(&self, name: &str) -> Option<u32> {
         self.materials
@@ -249,14 +329,25 @@ impl SceneBuilder {
             .map(|i| i as u32)
     }
 
-    /// Adds a shape with material index `material` and optional emitted radiance.
-    pub fn shape(
+    /// Adds a shape with material index `material` and optional emitted radiance; crossing it
+    /// does not change the medium.
+    pub fn shape(&mut self, geometry: Geometry, material: u32, emission: Option<Rgb>) -> Result<()> {
+        self.shape_with_media(geometry, material, emission, None)
+    }
+
+    /// Adds a shape whose surface separates two media (see [`MediumInterface`]).
+    pub fn shape_with_media(
         &mut self,
         geometry: Geometry,
         material: u32,
         emission: Option<Rgb>,
+        media: Option<MediumInterface>,
     ) -> Result<()> {
         let label = format!("shapes[{}]", self.shapes.len());
+        if let Some(m) = media {
+            self.check_medium_id(format!("{label}.interior"), m.interior)?;
+            self.check_medium_id(format!("{label}.exterior"), m.exterior)?;
+        }
         if material as usize >= self.materials.len() {
             return Err(invalid(format!("{label}.material"), "no such material"));
         }
@@ -310,20 +401,20 @@ impl SceneBuilder {
                 }
             }
         }
-        let shape = Shape {
-            label,
-            material,
-            emission,
-            interior: None,
-            exterior: None,
-        };
+        let shape = Shape { label, material, emission, media };
         self.shapes.push((shape, geometry));
         Ok(())
     }
 
-    /// Adds a light.
+    /// Adds a light in vacuum.
     pub fn light(&mut self, desc: LightDesc) -> Result<()> {
+        self.light_in(desc, None)
+    }
+
+    /// Adds a light that emits into `medium`.
+    pub fn light_in(&mut self, desc: LightDesc, medium: Option<u32>) -> Result<()> {
         let key = |k: &str| format!("lights[{}].{k}", self.lights.len());
+        self.check_medium_id(key("medium"), medium)?;
         match &desc {
             LightDesc::Point { position, power } => {
                 check_point(key("position"), *position)?;
@@ -366,7 +457,7 @@ impl SceneBuilder {
                 check_color(key("irradiance"), *irradiance, None)?;
             }
         }
-        self.lights.push(desc);
+        self.lights.push((desc, medium));
         Ok(())
     }
 
@@ -374,6 +465,7 @@ impl SceneBuilder {
     pub fn build(self) -> Result<Scene> {
         let mut prims = Vec::new();
         let mut lights = Vec::new();
+        let mut light_media = Vec::new();
         for (i, (shape, geometry)) in self.shapes.iter().enumerate() {
             let tag = i as u32;
             match geometry {
@@ -429,6 +521,7 @@ impl SceneBuilder {
                     radiance,
                     emitter,
                 });
+                light_media.push(shape.media.and_then(|m| m.exterior));
             }
         }
         let accel = Accel::build(&prims);
@@ -439,7 +532,7 @@ impl SceneBuilder {
             lo = lo.min(b.min.into());
             hi = hi.max(b.max.into());
         }
-        for l in &self.lights {
+        for (l, _) in &self.lights {
             if let LightDesc::Point { position, .. } | LightDesc::Spot { position, .. } = l {
                 lo = lo.min(*position);
                 hi = hi.max(*position);
@@ -450,7 +543,8 @@ impl SceneBuilder {
             hi = Vec3::splat(1.0);
         }
         let (center, radius) = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3) * 1.01);
-        for l in &self.lights {
+        for (l, medium) in &self.lights {
+            light_media.push(*medium);
             lights.push(match *l {
                 LightDesc::Point { position, power } => Light::Point {
                     position,
@@ -485,15 +579,94 @@ impl SceneBuilder {
                 },
             });
         }
-        Ok(Scene {
+        let scene = Scene {
             camera: self.camera,
             materials: self.materials.into_iter().map(|(_, m)| m).collect(),
             shapes: self.shapes.into_iter().map(|(s, _)| s).collect(),
             lights,
+            light_media,
+            medium_names: self.media.iter().map(|(n, _)| n.clone()).collect(),
+            media: self.media.into_iter().map(|(_, m)| m).collect(),
+            camera_medium: self.camera_medium,
             settings: self.settings,
             bounds: (lo, hi),
             source: self.source,
             accel,
-        })
+        };
+        debug_assert_eq!(scene.lights.len(), scene.light_media.len());
+        scene.check_media()?;
+        Ok(scene)
+    }
+}
+
+/// Directions probed from the camera and from point and spot lights to check their declared
+/// medium against the medium interfaces around them.
+const PROBES: [Vec3; 14] = [
+    Vec3::X,
+    Vec3::NEG_X,
+    Vec3::Y,
+    Vec3::NEG_Y,
+    Vec3::Z,
+    Vec3::NEG_Z,
+    Vec3::new(0.577_350_26, 0.577_350_26, 0.577_350_26),
+    Vec3::new(-0.577_350_26, 0.577_350_26, 0.577_350_26),
+    Vec3::new(0.577_350_26, -0.577_350_26, 0.577_350_26),
+    Vec3::new(0.577_350_26, 0.577_350_26, -0.577_350_26),
+    Vec3::new(-0.577_350_26, -0.577_350_26, 0.577_350_26),
+    Vec3::new(-0.577_350_26, 0.577_350_26, -0.577_350_26),
+    Vec3::new(0.577_350_26, -0.577_350_26, -0.577_350_26),
+    Vec3::new(-0.577_350_26, -0.577_350_26, -0.577_350_26),
+];
+
+impl Scene {
+    /// The medium at `p` according to the first medium interface hit along `d`, if any.
+    fn medium_seen(&self, p: Vec3, d: Vec3) -> Option<(Option<u32>, &Shape)> {
+        let mut o = p;
+        // Skip shapes without an interface (they do not say which medium is around).
+        for _ in 0..64 {
+            let hit = self.intersect(o, d, f32::INFINITY)?;
+            let shape = &self.shapes[hit.tag as usize];
+            if let Some(m) = &shape.media {
+                return Some((m.side(-d, hit.ng), shape));
+            }
+            o = crate::math::offset_origin(hit.p, hit.ng, d);
+        }
+        None
+    }
+
+    /// Rejects a camera or point/spot light whose declared medium contradicts the medium
+    /// interfaces around it.
+    fn check_media(&self) -> Result<()> {
+        let name = |m: Option<u32>| match m {
+            Some(i) => format!("medium `{}`", self.medium_names[i as usize]),
+            None => "vacuum".to_string(),
+        };
+        let n_area = self.lights.iter().filter(|l| matches!(l, Light::Area { .. })).count();
+        let probe = |what: String, p: Vec3, declared: Option<u32>| -> Result<()> {
+            for d in PROBES {
+                if let Some((seen, shape)) = self.medium_seen(p, d) {
+                    if seen != declared {
+                        return Err(invalid(
+                            what,
+                            format!(
+                                "declared {} but the medium interface of {} says this point is in {}",
+                                name(declared),
+                                shape.label,
+                                name(seen)
+                            ),
+                        ));
+                    }
+                }
+            }
+            Ok(())
+        };
+        let cam = &self.camera;
+        probe("camera.medium".into(), cam.position, self.camera_medium)?;
+        for (i, (light, medium)) in self.lights.iter().zip(&self.light_media).enumerate() {
+            if let Light::Point { position, .. } | Light::Spot { position, .. } = light {
+                probe(format!("lights[{}].medium", i - n_area), *position, *medium)?;
+            }
+        }
+        Ok(())
     }
 }

@@ -1,0 +1,64 @@
+//! In-scattered radiance in media from volume photons (power convention: [`VolumePhoton`]).
+//!
+//! Beam radiance estimate (Jarosz, Zwicker & Jensen 2008, eq. 21) along an eye segment [0, s] of
+//! the ray o + tω, with a 2-D kernel around the ray:
+//!
+//!   L_b ≈ (1/M) Σ_{p: 0 < t_p < s, d_p < r} β_p T(0, t_p) σ_s(x_p) f_p(ω_p, −ω) K₂(d_p / r) / r²
+//!
+//! Point estimate (Jensen & Christensen 1998) at a point x with a 3-D kernel:
+//!
+//!   L_s(x, −ω) ≈ (1/M) σ_s(x) Σ_{p: ‖x − x_p‖ < r} f_p(ω_p, −ω) β_p K₃(‖x − x_p‖ / r) / r³
+//!
+//! Only photons of the segment's own medium take part. f_p takes directions of travel: the photon's
+//! ω_p and −ω, the direction towards the eye.
+
+use super::surface::Gather;
+use crate::math::Rgb;
+use crate::medium::Medium;
+use crate::photon::VolumePhoton;
+use crate::photon::beam::BeamMap;
+use crate::photon::map::PhotonGrid;
+use glam::Vec3;
+
+/// The beam radiance estimate along o + tω, 0 < t < `t_max`, in medium `id`.
+pub fn beam_radiance(
+    map: &BeamMap,
+    medium: &Medium,
+    id: u32,
+    o: Vec3,
+    w: Vec3,
+    t_max: f32,
+    g: &Gather,
+) -> Rgb {
+    let tr = medium.segment(o, w, t_max);
+    let phase = medium.phase();
+    let inv_r2 = 1.0 / (g.radius * g.radius);
+    let mut sum = Rgb::ZERO;
+    map.query(o, w, t_max, |ph, t, d2| {
+        if ph.medium == id {
+            let k = g.kernel.eval(d2 * inv_r2, 2);
+            sum += ph.beta * tr.at(t) * medium.sigma_s(ph.p) * (phase.eval(ph.d, -w) * k);
+        }
+    });
+    sum * (inv_r2 * g.inv_paths)
+}
+
+/// The point estimate of in-scattered radiance at `x` towards −`w`, in medium `id`.
+pub fn point_radiance(
+    grid: &PhotonGrid<VolumePhoton>,
+    medium: &Medium,
+    id: u32,
+    x: Vec3,
+    w: Vec3,
+    g: &Gather,
+) -> Rgb {
+    let phase = medium.phase();
+    let inv_r2 = 1.0 / (g.radius * g.radius);
+    let mut sum = Rgb::ZERO;
+    grid.query(x, g.radius, |ph, d2| {
+        if ph.medium == id {
+            sum += ph.beta * (phase.eval(ph.d, -w) * g.kernel.eval(d2 * inv_r2, 3));
+        }
+    });
+    medium.sigma_s(x) * sum * (inv_r2 / g.radius * g.inv_paths)
+}

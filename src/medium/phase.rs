@@ -1,0 +1,77 @@
+//! Phase functions.
+//!
+//! Convention: `p(d_in, d_out)` takes both directions as **directions of travel** — `d_in` the way
+//! light travelled to the scattering point, `d_out` the way it leaves — so cos θ = d_in · d_out and
+//! forward scattering (g > 0) keeps light going the way it went: the mean of cos θ is g.
+//! Phase functions are normalised over the sphere: ∫ p dω = 1.
+
+use crate::math::Frame;
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// The Henyey–Greenstein phase function (Henyey & Greenstein 1941); g = 0 is isotropic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HenyeyGreenstein {
+    /// Mean cosine, in (−1, 1).
+    pub g: f32,
+}
+
+/// A sampled scattering direction; `value` = `pdf` because sampling is exact.
+#[derive(Clone, Copy, Debug)]
+pub struct PhaseSample {
+    /// Outgoing direction of travel.
+    pub d_out: Vec3,
+    /// Phase function value (= pdf).
+    pub value: f32,
+}
+
+impl HenyeyGreenstein {
+    /// p(cos θ) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}).
+    #[inline]
+    pub fn eval_cos(&self, cos_theta: f32) -> f32 {
+        let g = self.g;
+        let denom = (1.0 + g * g - 2.0 * g * cos_theta).max(1e-12);
+        (1.0 - g * g) / (4.0 * PI * denom * denom.sqrt())
+    }
+
+    /// p(d_in, d_out).
+    #[inline]
+    pub fn eval(&self, d_in: Vec3, d_out: Vec3) -> f32 {
+        self.eval_cos(d_in.dot(d_out))
+    }
+
+    /// Samples d_out ∝ p(d_in, ·) by inverting the CDF of cos θ (pbrt-v4, §11.3.1).
+    pub fn sample(&self, d_in: Vec3, u: Vec2) -> PhaseSample {
+        let g = self.g;
+        let cos_theta = if g.abs() < 1e-3 {
+            1.0 - 2.0 * u.x
+        } else {
+            let sq = (1.0 - g * g) / (1.0 + g - 2.0 * g * u.x);
+            ((1.0 + g * g - sq * sq) / (2.0 * g)).clamp(-1.0, 1.0)
+        };
+        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+        let phi = 2.0 * PI * u.y;
+        let local = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+        let d_out = Frame::new(d_in).to_world(local).normalize();
+        PhaseSample { d_out, value: self.eval_cos(cos_theta) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hg_integrates_to_one() {
+        for g in [-0.95f32, -0.5, 0.0, 0.3, 0.9] {
+            let hg = HenyeyGreenstein { g };
+            let n = 200_000;
+            let mut sum = 0.0f64;
+            for i in 0..n {
+                let c = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+                sum += hg.eval_cos(c as f32) as f64 * 2.0 * std::f64::consts::PI * 2.0 / n as f64;
+            }
+            assert!((sum - 1.0).abs() < 2e-3, "g = {g}: ∫p = {sum}");
+        }
+    }
+}
