@@ -2,10 +2,10 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
+use haze::Scene;
 use haze::estimate::kernel::Kernel;
 use haze::progress::Status;
 use haze::settings::{Radius, RenderSettings, VolumeEstimate};
-use haze::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -326,7 +326,10 @@ fn update_bar(bar: &ProgressBar, s: &Status) {
     } else {
         String::new()
     };
-    bar.set_message(format!("it {} ({rate:.2} it/s), r = {:.5}{volume}", i.iterations, i.radius));
+    bar.set_message(format!(
+        "it {} ({rate:.2} it/s), r = {:.5}{volume}",
+        i.iterations, i.radius
+    ));
 }
 
 fn bench(args: BenchArgs) -> Result<()> {

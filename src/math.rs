@@ -153,10 +153,21 @@ pub fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// Relative size of the offset that moves a ray origin off the surface it leaves.
+pub const RAY_EPSILON: f32 = 1e-5;
+
+/// Distance a ray origin at `p` is moved off its surface: [`RAY_EPSILON`] · (1 + max |p_i|),
+/// well above f32 rounding of the hit point (~6e-8 relative) yet small enough that the
+/// transmittance lost over it (a factor e^{−σ_t ε} per surface) is negligible.
+#[inline]
+pub fn ray_offset(p: Vec3) -> f32 {
+    RAY_EPSILON * (1.0 + p.abs().max_element())
+}
+
 /// Offsets a ray origin off a surface along the geometric normal, on the side `w` points to.
 #[inline]
 pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
-    let eps = 1e-4 * (1.0 + p.abs().max_element());
+    let eps = ray_offset(p);
     if w.dot(ng) >= 0.0 {
         p + ng * eps
     } else {

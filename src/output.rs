@@ -135,10 +135,19 @@ impl Image {
         put("initialRadius", AttributeValue::F64(info.initial_radius));
         put("alpha", AttributeValue::F64(info.alpha));
         put("volumeRadius", AttributeValue::F64(info.volume_radius));
-        put("volumeInitialRadius", AttributeValue::F64(info.volume_initial_radius));
+        put(
+            "volumeInitialRadius",
+            AttributeValue::F64(info.volume_initial_radius),
+        );
         put("volumeAlpha", AttributeValue::F64(info.volume_alpha));
-        put("volumeDimension", AttributeValue::I32(info.volume_dimension as i32));
-        put("volumeEstimate", AttributeValue::Text(Text::from(info.volume_estimate.name())));
+        put(
+            "volumeDimension",
+            AttributeValue::I32(info.volume_dimension as i32),
+        );
+        put(
+            "volumeEstimate",
+            AttributeValue::Text(Text::from(info.volume_estimate.name())),
+        );
         put(
             "kernel",
             AttributeValue::Text(Text::from(info.kernel.name())),

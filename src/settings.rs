@@ -55,7 +55,9 @@ impl std::str::FromStr for VolumeEstimate {
         match s {
             "beam" => Ok(VolumeEstimate::Beam),
             "point" => Ok(VolumeEstimate::Point),
-            _ => Err(format!("unknown volume estimate `{s}`; expected \"beam\" or \"point\"")),
+            _ => Err(format!(
+                "unknown volume estimate `{s}`; expected \"beam\" or \"point\""
+            )),
         }
     }
 }
@@ -181,15 +183,25 @@ impl RenderSettings {
             );
         }
         check_radius(self.radius, "radius", "radius_fraction")?;
-        check_radius(self.volume_radius, "volume_radius", "volume_radius_fraction")?;
+        check_radius(
+            self.volume_radius,
+            "volume_radius",
+            "volume_radius_fraction",
+        )?;
         if !(self.volume_alpha > 0.0 && self.volume_alpha < 1.0) {
             return err(
                 "volume_alpha",
-                format!("must lie strictly between 0 and 1, got {}", self.volume_alpha),
+                format!(
+                    "must lie strictly between 0 and 1, got {}",
+                    self.volume_alpha
+                ),
             );
         }
         if !(1..=3).contains(&self.volume_dimension) {
-            return err("volume_dimension", format!("must be 1, 2 or 3, got {}", self.volume_dimension));
+            return err(
+                "volume_dimension",
+                format!("must be 1, 2 or 3, got {}", self.volume_dimension),
+            );
         }
         if self.max_depth == 0 {
             return err("max_depth", "must be at least 1");

@@ -77,9 +77,11 @@ impl BeamMap {
         if photons.is_empty() {
             return;
         }
-        let (lo, hi) = photons.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p.p), hi.max(p.p))
-        });
+        let (lo, hi) = photons
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.p), hi.max(p.p))
+            });
         self.lo = lo - Vec3::splat(radius);
         self.hi = hi + Vec3::splat(radius);
         let extent = (self.hi - self.lo).max(Vec3::splat(1e-6));
@@ -92,13 +94,17 @@ impl BeamMap {
             coord.extend(photons.iter().map(|p| p.p[axis]));
             let n = coord.len();
             let a = *coord.select_nth_unstable_by(n / 20, f32::total_cmp).1;
-            let b = *coord.select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp).1;
+            let b = *coord
+                .select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp)
+                .1;
             core[axis] = (b - a).max(radius).max(1e-6 * extent.max_element());
         }
         let volume = core.x * core.y * core.z / 0.9f32.powi(3);
         let spacing = (PHOTONS_PER_CELL * volume / photons.len() as f32).cbrt();
         // At least twice the radius, and no more than about 2^20 cells per axis.
-        self.cell = spacing.max(2.0 * radius).max(extent.max_element() / 1_000_000.0);
+        self.cell = spacing
+            .max(2.0 * radius)
+            .max(extent.max_element() / 1_000_000.0);
         self.inv_cell = 1.0 / self.cell;
         // Enter each photon in every bucket its (slightly grown) sphere overlaps, once per bucket.
         let grow = radius * 1.001 + 1e-6 * extent.max_element();
@@ -108,8 +114,12 @@ impl BeamMap {
         est = est.next_power_of_two().max(16);
         self.mask = est - 1;
         for (i, ph) in photons.iter().enumerate() {
-            let a = ((ph.p - Vec3::splat(grow)) * self.inv_cell).floor().as_ivec3();
-            let b = ((ph.p + Vec3::splat(grow)) * self.inv_cell).floor().as_ivec3();
+            let a = ((ph.p - Vec3::splat(grow)) * self.inv_cell)
+                .floor()
+                .as_ivec3();
+            let b = ((ph.p + Vec3::splat(grow)) * self.inv_cell)
+                .floor()
+                .as_ivec3();
             let mut seen = [usize::MAX; 27];
             let mut n = 0;
             for z in a.z..=b.z {
@@ -160,7 +170,7 @@ impl BeamMap {
         let t2 = (self.hi - o) * inv_d;
         let t_start = t1.min(t2).max_element().max(0.0);
         let t_end = t1.max(t2).min_element().min(t_max);
-        if !(t_start < t_end) {
+        if t_start >= t_end || t_start.is_nan() {
             return;
         }
         let r2 = self.radius * self.radius;
@@ -175,7 +185,11 @@ impl BeamMap {
         let boundary = |c: i32, s: i32, axis: usize| -> f32 {
             let edge = (c + if s > 0 { 1 } else { 0 }) as f32 * self.cell;
             let t = (edge - o[axis]) * inv_d[axis];
-            if d[axis].abs() < 1e-30 { f32::INFINITY } else { t }
+            if d[axis].abs() < 1e-30 {
+                f32::INFINITY
+            } else {
+                t
+            }
         };
         let mut next = Vec3::new(
             boundary(cell.x, step.x, 0),

@@ -20,7 +20,13 @@ pub struct PhotonGrid<P> {
 
 impl<P> Default for PhotonGrid<P> {
     fn default() -> Self {
-        Self { inv_cell: 1.0, mask: 0, start: Vec::new(), photons: Vec::new(), keys: Vec::new() }
+        Self {
+            inv_cell: 1.0,
+            mask: 0,
+            start: Vec::new(),
+            photons: Vec::new(),
+            keys: Vec::new(),
+        }
     }
 }
 

@@ -45,7 +45,10 @@ impl LightSampler {
     /// A light index and its probability.
     pub fn pick(&self, u: f32) -> (usize, f32) {
         let target = u * self.total;
-        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len() - 1);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         (i, (self.cdf[i] - lo) / self.total)
     }
@@ -78,11 +81,21 @@ pub struct Photons {
 #[inline]
 fn roulette(before: Rgb, after: Rgb, u: f32) -> Option<Rgb> {
     let q = (after.max_element() / before.max_element()).min(1.0);
-    if q > 0.0 && u < q { Some(after / q) } else { None }
+    if q > 0.0 && u < q {
+        Some(after / q)
+    } else {
+        None
+    }
 }
 
 /// Traces one light path, storing its photons in `out`.
-fn trace_path(scene: &Scene, lights: &LightSampler, pass: &PhotonPass, index: u64, out: &mut Photons) {
+fn trace_path(
+    scene: &Scene,
+    lights: &LightSampler,
+    pass: &PhotonPass,
+    index: u64,
+    out: &mut Photons,
+) {
     let mut s = Sampler::new(pass.seed, Purpose::Photon, pass.iteration, index);
     let (li, p_light) = lights.pick(s.next_f32());
     let e = scene.lights[li].sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
@@ -91,7 +104,11 @@ fn trace_path(scene: &Scene, lights: &LightSampler, pass: &PhotonPass, index: u6
         return;
     }
     let mut medium = scene.light_media[li];
-    let mut o = if e.n == glam::Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
+    let mut o = if e.n == glam::Vec3::ZERO {
+        e.p
+    } else {
+        offset_origin(e.p, e.n, e.d)
+    };
     let mut d = e.d;
     for _ in 0..pass.max_depth {
         let hit = scene.intersect(o, d, f32::INFINITY);
@@ -103,10 +120,17 @@ fn trace_path(scene: &Scene, lights: &LightSampler, pass: &PhotonPass, index: u6
                 let p = o + d * flight.t;
                 beta *= flight.weight;
                 // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s.
-                out.volume.push(VolumePhoton { p, d, beta, medium: id });
+                out.volume.push(VolumePhoton {
+                    p,
+                    d,
+                    beta,
+                    medium: id,
+                });
                 let ps = m.phase().sample(d, s.next_2d());
                 // Phase sampling is exact, so the scattering weight is σ_s alone.
-                let Some(b) = roulette(beta, beta * m.sigma_s(p), s.next_f32()) else { return };
+                let Some(b) = roulette(beta, beta * m.sigma_s(p), s.next_f32()) else {
+                    return;
+                };
                 beta = b;
                 o = p;
                 d = ps.d_out;
@@ -123,16 +147,26 @@ fn trace_path(scene: &Scene, lights: &LightSampler, pass: &PhotonPass, index: u6
         let material = &scene.materials[shape.material as usize];
         if material.is_diffuse() {
             // Power convention (see `Photon`): store the path throughput as it arrives.
-            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-            out.surface.push(Photon { p: hit.p, wi: wo, n, beta });
+            let n = if wo.dot(hit.ng) >= 0.0 {
+                hit.ng
+            } else {
+                -hit.ng
+            };
+            out.surface.push(Photon {
+                p: hit.p,
+                wi: wo,
+                n,
+                beta,
+            });
         }
         let u = s.next_2d();
         let u_lobe = s.next_f32();
-        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance)
-        else {
+        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance) else {
             return;
         };
-        let Some(b) = roulette(beta, beta * bs.weight, s.next_f32()) else { return };
+        let Some(b) = roulette(beta, beta * bs.weight, s.next_f32()) else {
+            return;
+        };
         beta = b;
         if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
             medium = shape.medium_after(medium, bs.wi, hit.ng);

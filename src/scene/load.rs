@@ -3,18 +3,18 @@
 
 use super::camera::{Camera, Projection};
 use super::format::{
-    self, BoxDef, CameraDef, ColorDef, LightDef, MaterialDef, MediumDef, HomogeneousDef, MeshDef, ObjDef, OrthographicDef,
-    PerspectiveDef, RectangleDef, RenderDef, ScaleDef, SceneFile, ShapeDef, SphereDef,
-    TransformDef,
+    self, BoxDef, CameraDef, ColorDef, HomogeneousDef, LightDef, MaterialDef, MediumDef, MeshDef,
+    ObjDef, OrthographicDef, PerspectiveDef, RectangleDef, RenderDef, ScaleDef, SceneFile,
+    ShapeDef, SphereDef, TransformDef,
 };
 use super::material::Material;
 use super::shape::{self, Mesh};
 use super::{Geometry, LightDesc, MediumInterface, Scene, SceneBuilder};
+use crate::error::{Error, Result};
+use crate::math::Rgb;
 use crate::medium::Medium;
 use crate::medium::homogeneous::Homogeneous;
 use crate::medium::phase::HenyeyGreenstein;
-use crate::error::{Error, Result};
-use crate::math::Rgb;
 use crate::settings::{Radius, RenderSettings};
 use glam::Vec3;
 use std::ops::Range;
@@ -108,7 +108,9 @@ pub(super) fn load_str(text: &str, path: &Path, base_dir: &Path) -> Result<Scene
         places.tables.push(("render".into(), span.clone()));
     }
     for (name, _, span) in &file.materials {
-        places.tables.push((format!("materials.{name}"), span.clone()));
+        places
+            .tables
+            .push((format!("materials.{name}"), span.clone()));
     }
     for (name, _, span) in &file.media {
         places.tables.push((format!("media.{name}"), span.clone()));
@@ -131,7 +133,9 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
     b.settings(settings)?;
     for (name, m, _) in &file.materials {
         let m = match m {
-            MaterialDef::Diffuse(d) => Material::Diffuse { albedo: color(d.albedo) },
+            MaterialDef::Diffuse(d) => Material::Diffuse {
+                albedo: color(d.albedo),
+            },
             MaterialDef::Mirror(d) => Material::Mirror {
                 reflectance: d.reflectance.map(color).unwrap_or(Vec3::ONE),
             },
@@ -149,7 +153,10 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
         match name {
             None => Ok(None),
             Some(n) => b.medium_index(n).map(Some).ok_or_else(|| {
-                places.error(key, format!("undefined medium `{n}` (defined: {known_media:?})"))
+                places.error(
+                    key,
+                    format!("undefined medium `{n}` (defined: {known_media:?})"),
+                )
             }),
         }
     };
@@ -196,9 +203,10 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
     }
     for ((l, _), medium) in file.lights.iter().zip(light_media) {
         let desc = match l {
-            LightDef::Point(d) => {
-                LightDesc::Point { position: d.position.into(), power: color(d.power) }
-            }
+            LightDef::Point(d) => LightDesc::Point {
+                position: d.position.into(),
+                power: color(d.power),
+            },
             LightDef::Spot(d) => LightDesc::Spot {
                 position: d.position.into(),
                 look_at: d.look_at.into(),
@@ -227,12 +235,18 @@ fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium>
                 return Err(err("albedo", &format!("must lie in [0, 1], got {albedo}")));
             }
             if !t.is_finite() || t.min_element() < 0.0 {
-                return Err(err("sigma_t", &format!("must be finite and non-negative, got {t}")));
+                return Err(err(
+                    "sigma_t",
+                    &format!("must be finite and non-negative, got {t}"),
+                ));
             }
             ((Vec3::ONE - albedo) * t, albedo * t)
         }
         (None, None, None, None) => {
-            return Err(err("sigma_s", "give sigma_a and sigma_s, or albedo and sigma_t"));
+            return Err(err(
+                "sigma_s",
+                "give sigma_a and sigma_s, or albedo and sigma_t",
+            ));
         }
         (Some(_), None, ..) => return Err(err("sigma_s", "sigma_a needs sigma_s")),
         (None, Some(_), ..) => return Err(err("sigma_a", "sigma_s needs sigma_a")),
@@ -246,7 +260,11 @@ fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium>
         }
     };
     let g = d.g.unwrap_or(0.0);
-    Ok(Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase: HenyeyGreenstein { g } }))
+    Ok(Medium::Homogeneous(Homogeneous {
+        sigma_a,
+        sigma_s,
+        phase: HenyeyGreenstein { g },
+    }))
 }
 
 /// Largest image: 64 Mpixel (the film holds 24 bytes per pixel).
@@ -364,8 +382,9 @@ fn settings(def: Option<&RenderDef>, places: &Places) -> Result<RenderSettings> 
     s.max_depth = d.max_depth.unwrap_or(s.max_depth);
     s.seed = d.seed.unwrap_or(s.seed);
     if let Some(e) = &d.volume_estimate {
-        s.volume_estimate =
-            e.parse().map_err(|m: String| places.error("render.volume_estimate".into(), m))?;
+        s.volume_estimate = e
+            .parse()
+            .map_err(|m: String| places.error("render.volume_estimate".into(), m))?;
     }
     s.volume_alpha = d.volume_alpha.unwrap_or(s.volume_alpha);
     if d.volume_radius.is_some() && d.volume_radius_fraction.is_some() {

@@ -11,10 +11,10 @@ pub mod shape;
 use crate::accel::{Accel, Hit, Primitive};
 use crate::error::{Error, Result};
 use crate::math::Rgb;
+use crate::medium::Medium;
 use crate::settings::RenderSettings;
 use camera::Camera;
 use glam::Vec3;
-use crate::medium::Medium;
 use light::{Emitter, Light};
 use material::Material;
 use shape::Mesh;
@@ -34,7 +34,11 @@ impl MediumInterface {
     /// The medium on the side that direction `w` points to, for geometric normal `ng`.
     #[inline]
     pub fn side(&self, w: Vec3, ng: Vec3) -> Option<u32> {
-        if w.dot(ng) >= 0.0 { self.exterior } else { self.interior }
+        if w.dot(ng) >= 0.0 {
+            self.exterior
+        } else {
+            self.interior
+        }
     }
 }
 
@@ -294,7 +298,10 @@ impl SceneBuilder {
                 check_color(key("sigma_s"), h.sigma_s, None)?;
                 let g = h.phase.g;
                 if !(g > -1.0 && g < 1.0) {
-                    return Err(invalid(key("g"), format!("must lie strictly between -1 and 1, got {g}")));
+                    return Err(invalid(
+                        key("g"),
+                        format!("must lie strictly between -1 and 1, got {g}"),
+                    ));
                 }
             }
         }
@@ -304,7 +311,10 @@ impl SceneBuilder {
 
     /// Id of a medium by name.
     pub fn medium_index(&self, name: &str) -> Option<u32> {
-        self.media.iter().position(|(n, _)| n == name).map(|i| i as u32)
+        self.media
+            .iter()
+            .position(|(n, _)| n == name)
+            .map(|i| i as u32)
     }
 
     /// Sets the medium around the camera (default: vacuum).
@@ -331,7 +341,12 @@ impl SceneBuilder {
 
     /// Adds a shape with material index `material` and optional emitted radiance; crossing it
     /// does not change the medium.
-    pub fn shape(&mut self, geometry: Geometry, material: u32, emission: Option<Rgb>) -> Result<()> {
+    pub fn shape(
+        &mut self,
+        geometry: Geometry,
+        material: u32,
+        emission: Option<Rgb>,
+    ) -> Result<()> {
         self.shape_with_media(geometry, material, emission, None)
     }
 
@@ -401,7 +416,12 @@ impl SceneBuilder {
                 }
             }
         }
-        let shape = Shape { label, material, emission, media };
+        let shape = Shape {
+            label,
+            material,
+            emission,
+            media,
+        };
         self.shapes.push((shape, geometry));
         Ok(())
     }
@@ -641,7 +661,11 @@ impl Scene {
             Some(i) => format!("medium `{}`", self.medium_names[i as usize]),
             None => "vacuum".to_string(),
         };
-        let n_area = self.lights.iter().filter(|l| matches!(l, Light::Area { .. })).count();
+        let n_area = self
+            .lights
+            .iter()
+            .filter(|l| matches!(l, Light::Area { .. }))
+            .count();
         let probe = |what: String, p: Vec3, declared: Option<u32>| -> Result<()> {
             for d in PROBES {
                 if let Some((seen, shape)) = self.medium_seen(p, d) {

@@ -170,3 +170,54 @@ fn missing_scene_file_names_the_file() {
     let err = Scene::load("no/such/scene.toml").err().expect("loaded");
     assert!(err.to_string().contains("no/such/scene.toml"), "{err}");
 }
+
+const FOG: &str = r#"
+[media.fog]
+type = "homogeneous"
+sigma_a = 0.1
+sigma_s = 0.5
+g = 0.2
+"#;
+
+#[test]
+fn bad_media_name_the_key_and_line() {
+    let base = format!("{CAMERA}{BODY}{FOG}");
+    let text = base.replace("sigma_a = 0.1", "sigma_a = -0.1");
+    expect_error(&text, &["media.fog.sigma_a", "negative"]);
+    let text = base.replace("g = 0.2", "g = 1.0");
+    expect_error(&text, &["media.fog.g", "between -1 and 1"]);
+    let text = base.replace("g = 0.2", "g = nan");
+    expect_error(&text, &["media.fog.g"]);
+    let text = base.replace("sigma_a = 0.1", "sigma_a = 0.1\nalbedo = 0.5");
+    expect_error(&text, &["media.fog", "not both"]);
+    let text = base.replace("sigma_a = 0.1\n", "");
+    expect_error(&text, &["media.fog.sigma_a", "sigma_s needs sigma_a"]);
+    let text = base.replace("\"homogeneous\"", "\"smoke\"");
+    expect_error(&text, &["media.fog.type", "smoke"]);
+    let text = base.replace("sigma_a = 0.1\nsigma_s = 0.5", "albedo = 1.5\nsigma_t = 1");
+    expect_error(&text, &["media.fog.albedo", "[0, 1]"]);
+}
+
+#[test]
+fn undefined_or_contradictory_media_are_errors() {
+    let base = format!("{CAMERA}{BODY}{FOG}");
+    let text = base.replace(
+        "resolution = [32, 32]",
+        "resolution = [32, 32]\nmedium = \"smog\"",
+    );
+    expect_error(&text, &["camera.medium", "undefined medium `smog`"]);
+    let text = base.replace(
+        "material = \"white\"",
+        "material = \"white\"\ninterior = \"smog\"",
+    );
+    expect_error(&text, &["shapes[0].interior", "smog"]);
+    let text = base.replace("power = 20", "power = 20\nmedium = \"smog\"");
+    expect_error(&text, &["lights[0].medium", "smog"]);
+    // The camera says it is in fog, but the only medium boundary around it (a closed box of
+    // interface material with fog inside, the camera outside) says vacuum.
+    let text = format!(
+        "{base}\n[materials.glassless]\ntype = \"interface\"\n\n[[shapes]]\ntype = \"box\"\nsize = [1, 1, 1]\nmaterial = \"glassless\"\ninterior = \"fog\"\ntransform = {{ translate = [0, 1, 0] }}\n"
+    )
+    .replace("resolution = [32, 32]", "resolution = [32, 32]\nmedium = \"fog\"");
+    expect_error(&text, &["camera.medium", "shapes[1]", "vacuum"]);
+}

@@ -6,6 +6,8 @@ mod cli;
 mod common;
 mod determinism;
 mod kernel;
+mod media;
 mod output;
 mod sampling;
+mod scenes;
 mod schedule;

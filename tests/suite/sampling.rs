@@ -178,3 +178,64 @@ fn lights_are_chosen_in_proportion_to_power() {
     let p = chi_square_p(&counts, &expected);
     assert!(p > SIGNIFICANCE, "p = {p}");
 }
+
+/// Henyey–Greenstein sampling: directions follow p(cos θ) (chi-square over cos θ × φ bins, with
+/// expected bin probabilities integrated numerically from the phase function), and the mean cosine
+/// between the incoming and outgoing directions of travel equals g (t-test on batch means).
+#[test]
+fn henyey_greenstein_sampling_matches_its_density_and_mean_cosine() {
+    use haze::medium::phase::HenyeyGreenstein;
+    const COS_BINS: usize = 20;
+    for (k, g) in [-0.95f32, -0.4, 0.0, 0.3, 0.8, 0.95]
+        .into_iter()
+        .enumerate()
+    {
+        let hg = HenyeyGreenstein { g };
+        let d_in = Vec3::new(0.2, -0.5, 0.84).normalize();
+        let frame = Frame::new(d_in);
+        // Expected probability of each (cos θ, φ) bin: ∫ 2π p(c) dc / BINS over the cos bin.
+        let mut expected = Vec::with_capacity(COS_BINS * BINS);
+        for i in 0..COS_BINS {
+            let (a, b) = (
+                -1.0 + 2.0 * i as f64 / COS_BINS as f64,
+                -1.0 + 2.0 * (i + 1) as f64 / COS_BINS as f64,
+            );
+            let steps = 2000;
+            let h = (b - a) / steps as f64;
+            let mass: f64 = (0..steps)
+                .map(|j| {
+                    hg.eval_cos((a + (j as f64 + 0.5) * h) as f32) as f64
+                        * 2.0
+                        * std::f64::consts::PI
+                        * h
+                })
+                .sum();
+            expected.extend(std::iter::repeat_n(mass / BINS as f64, BINS));
+        }
+        let total: f64 = expected.iter().sum();
+        assert!(
+            (total - 1.0).abs() < 1e-3,
+            "g = {g}: p integrates to {total}"
+        );
+        let mut s = Sampler::new(20 + k as u64, Purpose::Other, 0, 0);
+        let mut counts = vec![0u64; COS_BINS * BINS];
+        let mut cosines = Vec::with_capacity(N);
+        for _ in 0..N {
+            let ps = hg.sample(d_in, s.next_2d());
+            let local = frame.to_local(ps.d_out);
+            let c = local.z.clamp(-1.0, 1.0);
+            cosines.push(ps.d_out.dot(d_in) as f64);
+            assert!((ps.value - hg.eval_cos(c)).abs() <= 1e-3 * ps.value.max(1.0));
+            let i = (((c + 1.0) / 2.0 * COS_BINS as f32) as usize).min(COS_BINS - 1);
+            let j = ((phi01(local) * BINS as f32) as usize).min(BINS - 1);
+            counts[i * BINS + j] += 1;
+        }
+        let p = chi_square_p(&counts, &expected);
+        assert!(p > SIGNIFICANCE / 6.0, "g = {g}: chi-square p = {p}");
+        let batches: Vec<f64> = cosines
+            .chunks(N / 20)
+            .map(|c| c.iter().sum::<f64>() / c.len() as f64)
+            .collect();
+        assert_agrees(&format!("mean cosine, g = {g}"), &batches, g as f64, 0.0);
+    }
+}

@@ -1,0 +1,280 @@
+//! Participating media against known answers: the white furnace, Beer–Lambert slabs, chromatic
+//! media, agreement of the beam and point estimates, and the radius schedules they use.
+
+use crate::common::{assert_agrees, mean_and_se, t_critical};
+use glam::Vec3;
+use haze::estimate::kernel::Kernel;
+use haze::estimate::radius::radius;
+use haze::medium::Medium;
+use haze::medium::homogeneous::Homogeneous;
+use haze::medium::phase::HenyeyGreenstein;
+use haze::progress::Silent;
+use haze::scene::camera::{Camera, Projection};
+use haze::scene::material::Material;
+use haze::scene::{Geometry, LightDesc, MediumInterface, SceneBuilder, shape};
+use haze::settings::{Radius, RenderSettings, VolumeEstimate};
+use haze::{Image, Scene};
+use std::sync::atomic::AtomicBool;
+
+fn render(scene: &Scene, settings: &RenderSettings) -> Image {
+    haze::render(scene, settings, &mut Silent, &AtomicBool::new(false)).unwrap()
+}
+
+fn homogeneous(sigma_a: Vec3, sigma_s: Vec3, g: f32) -> Medium {
+    Medium::Homogeneous(Homogeneous {
+        sigma_a,
+        sigma_s,
+        phase: HenyeyGreenstein { g },
+    })
+}
+
+/// Half-angle of the furnace camera's view cone (diagonal), for the bias bound.
+const FURNACE_FOV_DEG: f32 = 20.0;
+
+/// A closed cube [-1, 1]³ of black, inward-facing walls emitting radiance `le`, filled with
+/// `medium`; the camera sits at the centre, in the medium, looking at the −z wall.
+fn furnace(le: Vec3, medium: Medium) -> Scene {
+    let tan = (FURNACE_FOV_DEG.to_radians() / 2.0).tan();
+    let camera = Camera::new(
+        Projection::Perspective {
+            tan_half_fov: tan,
+            lens_radius: 0.0,
+            focus_distance: 1.0,
+        },
+        Vec3::ZERO,
+        -Vec3::Z,
+        Vec3::Y,
+        [8, 8],
+    );
+    let mut b = SceneBuilder::new(camera);
+    let fog = b.medium("fog", medium).unwrap();
+    b.camera_medium(Some(fog)).unwrap();
+    let black = b
+        .material("black", Material::Diffuse { albedo: Vec3::ZERO })
+        .unwrap();
+    // Rotations taking the rectangle's +z normal to each inward direction.
+    let walls = [
+        (Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0)), // back wall z = -1, normal +z
+        (Vec3::new(0.0, 180.0, 0.0), Vec3::new(0.0, 0.0, 1.0)), // front z = +1, normal -z
+        (Vec3::new(0.0, 90.0, 0.0), Vec3::new(-1.0, 0.0, 0.0)), // x = -1, normal +x
+        (Vec3::new(0.0, -90.0, 0.0), Vec3::new(1.0, 0.0, 0.0)), // x = +1, normal -x
+        (Vec3::new(-90.0, 0.0, 0.0), Vec3::new(0.0, -1.0, 0.0)), // floor y = -1, normal +y
+        (Vec3::new(90.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)), // ceiling y = +1, normal -y
+    ];
+    for (rotate, at) in walls {
+        let mesh = shape::rectangle(2.0, 2.0).transformed(&shape::affine(Vec3::ONE, rotate, at));
+        let inside = MediumInterface {
+            interior: None,
+            exterior: Some(fog),
+        };
+        b.shape_with_media(Geometry::Mesh(mesh), black, Some(le), Some(inside))
+            .unwrap();
+    }
+    b.build().unwrap()
+}
+
+fn volume_settings(estimate: VolumeEstimate, r: f64, seed: u64) -> RenderSettings {
+    RenderSettings {
+        iterations: Some(4),
+        photons: 10_000,
+        radius: Radius::Absolute(0.05),
+        kernel: Kernel::Epanechnikov,
+        max_depth: 100_000,
+        seed,
+        volume_estimate: estimate,
+        volume_alpha: 0.5,
+        volume_radius: Radius::Absolute(r),
+        volume_dimension: 3,
+        ..RenderSettings::default()
+    }
+}
+
+/// White furnace: an albedo-1 medium in a closed enclosure emitting L_e uniformly has radiance
+/// L_e everywhere, in every direction, whatever its density and phase function; so every pixel is
+/// L_e (per channel, also for chromatic media).
+///
+/// Bias: the kernel estimates lose the part of their support that lies beyond a wall. Only
+/// collisions within r of the far wall are affected (the view cone keeps ≥ 0.75 from the side
+/// walls); they occur with probability at most σ_t · r / cos θ_max · e^{−σ_t (1 − r)} on an eye
+/// ray, and lose at most half the kernel (a half-space), so the bias of the pixel mean is at most
+/// B = L_e · σ_t · r / (2 cos θ_max) · e^{−σ_t (1 − r)} (the beam estimate's is smaller still).
+#[test]
+fn white_furnace_with_media_for_both_estimators() {
+    let le = Vec3::splat(1.0);
+    let cases = [
+        (Vec3::splat(0.5), 0.0f32, 0.03f64),
+        (Vec3::splat(2.0), 0.7, 0.02),
+        (Vec3::splat(5.0), -0.5, 0.015),
+        (Vec3::new(0.5, 1.5, 3.0), 0.3, 0.02), // chromatic extinction
+    ];
+    let cos_max = ((FURNACE_FOV_DEG.to_radians() / 2.0).tan() * 2f32.sqrt())
+        .atan()
+        .cos() as f64;
+    for (sigma_s, g, r) in cases {
+        let scene = furnace(le, homogeneous(Vec3::ZERO, sigma_s, g));
+        for estimate in [VolumeEstimate::Beam, VolumeEstimate::Point] {
+            let per_channel: Vec<[f64; 3]> = (0..8)
+                .map(|seed| {
+                    let img = render(&scene, &volume_settings(estimate, r, seed));
+                    assert_eq!(img.info.nonfinite_samples, 0);
+                    let n = img.pixels.len() as f64;
+                    let mut m = [0.0; 3];
+                    for p in &img.pixels {
+                        for c in 0..3 {
+                            m[c] += p[c] as f64 / n;
+                        }
+                    }
+                    m
+                })
+                .collect();
+            for c in 0..3 {
+                let sigma = sigma_s[c] as f64;
+                let bias = le[c] as f64 * sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp();
+                let xs: Vec<f64> = per_channel.iter().map(|m| m[c]).collect();
+                let what = format!("furnace σ_s = {sigma_s}, g = {g}, {estimate:?}, channel {c}");
+                assert_agrees(&what, &xs, le[c] as f64, bias);
+            }
+        }
+    }
+}
+
+/// Beer–Lambert: an emitter of radiance L_e seen through a purely absorbing slab of thickness d
+/// (orthographic camera, perpendicular rays) reads L_e · exp(−σ_t d) per channel. The beam
+/// estimate applies the transmittance exactly, up to the ray-origin offset ε at the slab's top face
+/// (the segment inside is shorter by at most ε, so the relative error is below e^{σ_t ε} − 1); the
+/// point estimate samples free flights with the balance heuristic over channels, so it is tested
+/// statistically.
+#[test]
+fn beer_lambert_slab_with_chromatic_absorption() {
+    let thickness = 1.2f32;
+    let sigma_a = Vec3::new(0.3, 1.0, 2.5);
+    let le = Vec3::new(2.0, 3.0, 4.0);
+    let camera = Camera::new(
+        Projection::Orthographic { height: 0.5 },
+        Vec3::new(0.0, 0.0, 3.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        [6, 6],
+    );
+    let mut b = SceneBuilder::new(camera);
+    let slab = b
+        .medium("slab", homogeneous(sigma_a, Vec3::ZERO, 0.0))
+        .unwrap();
+    let boundary = b.material("boundary", Material::Interface).unwrap();
+    let black = b
+        .material("black", Material::Diffuse { albedo: Vec3::ZERO })
+        .unwrap();
+    let cube = shape::cuboid(Vec3::new(4.0, 4.0, thickness));
+    let inside = MediumInterface {
+        interior: Some(slab),
+        exterior: None,
+    };
+    b.shape_with_media(Geometry::Mesh(cube), boundary, None, Some(inside))
+        .unwrap();
+    let emitter = shape::rectangle(4.0, 4.0).transformed(&shape::affine(
+        Vec3::ONE,
+        Vec3::ZERO,
+        Vec3::new(0.0, 0.0, -1.0),
+    ));
+    b.shape(Geometry::Mesh(emitter), black, Some(le)).unwrap();
+    let scene = b.build().unwrap();
+    let expected = le * (-sigma_a * thickness).exp();
+
+    let beam = render(&scene, &volume_settings(VolumeEstimate::Beam, 0.02, 1));
+    let eps = haze::math::ray_offset(Vec3::new(0.25, 0.25, thickness / 2.0));
+    for p in &beam.pixels {
+        for c in 0..3 {
+            let tol = (sigma_a[c] * eps).exp() - 1.0 + 1e-6; // + f32 rounding of exp
+            let rel = p[c] / expected[c] - 1.0;
+            assert!(
+                rel >= -1e-6 && rel <= tol,
+                "beam: {p:?} vs {expected} (tolerance {tol})"
+            );
+        }
+    }
+    let per_seed: Vec<Vec3> = (0..10)
+        .map(|seed| {
+            let img = render(&scene, &volume_settings(VolumeEstimate::Point, 0.02, seed));
+            img.pixels.iter().map(|p| Vec3::from(*p)).sum::<Vec3>() / img.pixels.len() as f32
+        })
+        .collect();
+    for c in 0..3 {
+        let xs: Vec<f64> = per_seed.iter().map(|m| m[c] as f64).collect();
+        assert_agrees(&format!("point, channel {c}"), &xs, expected[c] as f64, 0.0);
+    }
+}
+
+/// The beam and point estimates are two estimators of one quantity: on a scene with a smooth
+/// light field they must agree. Scene: an infinite fog (σ_s = 0.8, σ_a = 0.2, g = 0.4) with a
+/// point light 1 behind the camera, which looks away from it, so every point the eye rays reach is
+/// at least 1 from the light.
+///
+/// Bias of each estimate, to first order in r²: (r²/2)·m₂·|∇²L|, with m₂ ≤ 1/6 the kernel's second
+/// moment per axis (Epanechnikov, 2-D and 3-D) and |∇²L/L| ≤ 2/d² + 2σ_t/d + σ_t² ≤ 5 for d ≥ 1,
+/// σ_t = 1; so each is within 5r²/12 of the truth relative to the mean, and the difference within
+/// twice that.
+#[test]
+fn beam_and_point_estimates_agree() {
+    let camera = Camera::new(
+        Projection::Perspective {
+            tan_half_fov: 0.4,
+            lens_radius: 0.0,
+            focus_distance: 1.0,
+        },
+        Vec3::ZERO,
+        -Vec3::Z,
+        Vec3::Y,
+        [12, 12],
+    );
+    let mut b = SceneBuilder::new(camera);
+    let fog = b
+        .medium("fog", homogeneous(Vec3::splat(0.2), Vec3::splat(0.8), 0.4))
+        .unwrap();
+    b.camera_medium(Some(fog)).unwrap();
+    let light = LightDesc::Point {
+        position: Vec3::new(0.0, 0.0, 1.0),
+        power: Vec3::splat(50.0),
+    };
+    b.light_in(light, Some(fog)).unwrap();
+    let scene = b.build().unwrap();
+    let r = 0.05;
+    let means = |estimate| -> Vec<f64> {
+        (0..8)
+            .map(|seed| {
+                let mut s = volume_settings(estimate, r, 100 + seed);
+                s.max_depth = 64;
+                s.photons = 20_000;
+                render(&scene, &s).mean()
+            })
+            .collect()
+    };
+    let (beam, point) = (means(VolumeEstimate::Beam), means(VolumeEstimate::Point));
+    let (mb, sb) = mean_and_se(&beam);
+    let (mp, sp) = mean_and_se(&point);
+    let bias = 2.0 * 5.0 * r * r / 12.0 * mb.max(mp);
+    let t = t_critical(beam.len()); // conservative: fewer degrees of freedom than Welch's
+    let diff = (mb - mp).abs();
+    assert!(
+        diff <= t * (sb * sb + sp * sp).sqrt() + bias,
+        "beam {mb:.6} ± {sb:.6} vs point {mp:.6} ± {sp:.6}: |Δ| = {diff:.6}"
+    );
+    assert!(mb > 0.0);
+}
+
+/// Both estimators use the volume schedule r³(i+1)/r³(i) = (i+α)/(i+1), the surface the r²
+/// schedule; the dimension can be overridden.
+#[test]
+fn volume_radius_follows_the_three_dimensional_schedule() {
+    let scene = furnace(Vec3::ONE, homogeneous(Vec3::ZERO, Vec3::ONE, 0.0));
+    for estimate in [VolumeEstimate::Beam, VolumeEstimate::Point] {
+        for dim in [3, 2] {
+            let mut s = volume_settings(estimate, 0.03, 0);
+            s.iterations = Some(5);
+            s.photons = 500;
+            s.volume_dimension = dim;
+            let img = render(&scene, &s);
+            assert_eq!(img.info.volume_radius, radius(5, 0.03, 0.5, dim));
+            assert_eq!(img.info.radius, radius(5, 0.05, s.alpha, 2));
+        }
+    }
+}

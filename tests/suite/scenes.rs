@@ -1,0 +1,46 @@
+//! Every bundled scene loads and renders without a NaN or infinite pixel, with both volume
+//! estimators (at reduced resolution and photon counts).
+
+use crate::common::scene_path;
+use haze::Scene;
+use haze::progress::Silent;
+use haze::settings::VolumeEstimate;
+use std::sync::atomic::AtomicBool;
+
+#[test]
+fn bundled_scenes_render_finite_images() {
+    let dir = scene_path("");
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    names.sort();
+    assert!(
+        names.len() >= 5,
+        "expected the bundled scenes in {}",
+        dir.display()
+    );
+    for path in names {
+        let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let [w, h] = scene.camera.resolution;
+        scene.camera.resolution = [(w / 8).max(1), (h / 8).max(1)];
+        for estimate in [VolumeEstimate::Beam, VolumeEstimate::Point] {
+            let mut s = scene.settings.clone();
+            s.iterations = Some(2);
+            s.time_limit = None;
+            s.photons = 20_000;
+            s.volume_estimate = estimate;
+            let image = haze::render(&scene, &s, &mut Silent, &AtomicBool::new(false)).unwrap();
+            let bad = image
+                .pixels
+                .iter()
+                .flatten()
+                .filter(|c| !c.is_finite() || **c < 0.0)
+                .count();
+            assert_eq!(bad, 0, "{}: {bad} bad pixel values", path.display());
+            assert_eq!(image.info.nonfinite_samples, 0, "{}", path.display());
+            assert!(image.mean() > 0.0, "{}: black image", path.display());
+        }
+    }
+}
