@@ -99,22 +99,11 @@ impl Accel {
     /// Builds the BVH. An empty list gives an accelerator that never hits.
     pub fn build(primitives: &[Primitive]) -> Self {
         if primitives.is_empty() {
-            return Self {
-                bvh: None,
-                prims: Vec::new(),
-                tags: Vec::new(),
-            };
+            return Self { bvh: None, prims: Vec::new(), tags: Vec::new() };
         }
-        let bvh = build_cwbvh(
-            primitives,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
-        let order: Vec<&Primitive> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| &primitives[i as usize])
-            .collect();
+        let bvh = build_cwbvh(primitives, BvhBuildParams::medium_build(), &mut Duration::default());
+        let order: Vec<&Primitive> =
+            bvh.primitive_indices.iter().map(|&i| &primitives[i as usize]).collect();
         let prims = order
             .iter()
             .map(|p| match p {
@@ -126,11 +115,7 @@ impl Accel {
             })
             .collect();
         let tags = order.iter().map(|p| p.tag()).collect();
-        Self {
-            bvh: Some(bvh),
-            prims,
-            tags,
-        }
+        Self { bvh: Some(bvh), prims, tags }
     }
 
     #[inline]
@@ -177,13 +162,7 @@ impl Accel {
                 (n, n)
             }
         };
-        Some(Hit {
-            t,
-            p,
-            ng,
-            ns,
-            tag: self.tags[id],
-        })
+        Some(Hit { t, p, ng, ns, tag: self.tags[id] })
     }
 
     /// True if nothing blocks `o + t d` for `0 < t < t_max`.
@@ -233,56 +212,30 @@ mod tests {
         };
         let accel = Accel::build(&[tri]);
         // A hit at vertex 1's corner should get (almost) vertex 1's normal.
-        let h = accel
-            .intersect(Vec3::new(0.98, 0.01, 1.0), -Vec3::Z, f32::INFINITY)
-            .unwrap();
+        let h = accel.intersect(Vec3::new(0.98, 0.01, 1.0), -Vec3::Z, f32::INFINITY).unwrap();
         assert_eq!(h.tag, 4);
-        assert!(
-            h.ns.dot(Vec3::new(1.0, 0.0, 0.05).normalize()) > 0.99,
-            "{:?}",
-            h.ns
-        );
-        let h = accel
-            .intersect(Vec3::new(0.01, 0.98, 1.0), -Vec3::Z, f32::INFINITY)
-            .unwrap();
-        assert!(
-            h.ns.dot(Vec3::new(0.0, 1.0, 0.05).normalize()) > 0.99,
-            "{:?}",
-            h.ns
-        );
+        assert!(h.ns.dot(Vec3::new(1.0, 0.0, 0.05).normalize()) > 0.99, "{:?}", h.ns);
+        let h = accel.intersect(Vec3::new(0.01, 0.98, 1.0), -Vec3::Z, f32::INFINITY).unwrap();
+        assert!(h.ns.dot(Vec3::new(0.0, 1.0, 0.05).normalize()) > 0.99, "{:?}", h.ns);
         assert!((h.t - 1.0).abs() < 1e-6);
     }
 
     #[test]
     fn axis_aligned_rays_with_negative_zero_components_hit() {
-        let tri = Primitive::Triangle {
-            p: [Vec3::ZERO, Vec3::X, Vec3::Y],
-            normals: None,
-            tag: 0,
-        };
+        let tri = Primitive::Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, tag: 0 };
         let accel = Accel::build(&[tri]);
         let down = -Vec3::Z; // (−0, −0, −1)
-        assert!(
-            accel
-                .intersect(Vec3::new(0.2, 0.2, 1.0), down, f32::INFINITY)
-                .is_some()
-        );
+        assert!(accel.intersect(Vec3::new(0.2, 0.2, 1.0), down, f32::INFINITY).is_some());
         assert!(!accel.unoccluded(Vec3::new(0.2, 0.2, 1.0), down, 2.0));
     }
 
     #[test]
     fn sphere_hits_from_outside_and_inside() {
-        let s = Primitive::Sphere {
-            center: Vec3::new(0.0, 0.0, 5.0),
-            radius: 1.0,
-            tag: 0,
-        };
+        let s = Primitive::Sphere { center: Vec3::new(0.0, 0.0, 5.0), radius: 1.0, tag: 0 };
         let accel = Accel::build(&[s]);
         let h = accel.intersect(Vec3::ZERO, Vec3::Z, f32::INFINITY).unwrap();
         assert!((h.t - 4.0).abs() < 1e-5 && h.ng.z < -0.99);
-        let h = accel
-            .intersect(Vec3::new(0.0, 0.0, 5.0), Vec3::Z, f32::INFINITY)
-            .unwrap();
+        let h = accel.intersect(Vec3::new(0.0, 0.0, 5.0), Vec3::Z, f32::INFINITY).unwrap();
         assert!((h.t - 1.0).abs() < 1e-5 && h.ng.z > 0.99);
         assert!(accel.unoccluded(Vec3::ZERO, Vec3::Z, 3.9));
         assert!(!accel.unoccluded(Vec3::ZERO, Vec3::Z, 4.1));

@@ -16,12 +16,7 @@ pub struct Film {
 impl Film {
     /// An empty film.
     pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            sum: vec![DVec3::ZERO; (width * height) as usize],
-            iterations: 0,
-        }
+        Self { width, height, sum: vec![DVec3::ZERO; (width * height) as usize], iterations: 0 }
     }
 
     /// Width in pixels.
@@ -50,14 +45,7 @@ impl Film {
 
     /// The mean of the iterations so far (black before the first).
     pub fn mean(&self) -> Vec<[f32; 3]> {
-        let inv = if self.iterations == 0 {
-            0.0
-        } else {
-            1.0 / self.iterations as f64
-        };
-        self.sum
-            .iter()
-            .map(|s| (*s * inv).as_vec3().to_array())
-            .collect()
+        let inv = if self.iterations == 0 { 0.0 } else { 1.0 / self.iterations as f64 };
+        self.sum.iter().map(|s| (*s * inv).as_vec3().to_array()).collect()
     }
 }

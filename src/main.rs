@@ -45,12 +45,7 @@ struct Overrides {
     #[arg(short = 'a', long, value_name = "A")]
     alpha: Option<f64>,
     /// Initial gathering radius in scene units.
-    #[arg(
-        short = 'r',
-        long,
-        value_name = "R",
-        conflicts_with = "radius_fraction"
-    )]
+    #[arg(short = 'r', long, value_name = "R", conflicts_with = "radius_fraction")]
     radius: Option<f64>,
     /// Initial gathering radius as a fraction of the scene's bounding-box diagonal.
     #[arg(long, value_name = "F")]
@@ -127,10 +122,7 @@ fn parse_duration(s: &str) -> Result<f64, String> {
         "h" => 3600.0,
         _ => return Err(format!("unknown unit `{unit}` (use ms, s, m or h)")),
     };
-    let v: f64 = num
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a duration such as 60s"))?;
+    let v: f64 = num.trim().parse().map_err(|_| format!("`{s}` is not a duration such as 60s"))?;
     if !(v.is_finite() && v > 0.0) {
         return Err(format!("`{s}` must be a positive duration"));
     }
@@ -217,10 +209,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let scene = Scene::load(&args.scene)?;
     let settings = apply(&scene.settings, &args.overrides)?;
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
-        bail!(
-            "--exposure must be a positive number, got {}",
-            args.exposure
-        );
+        bail!("--exposure must be a positive number, got {}", args.exposure);
     }
     if args.snapshot_every.is_some_and(|s| !s.is_finite()) {
         bail!("--snapshot-every must be finite");
@@ -229,27 +218,16 @@ fn render(args: RenderArgs) -> Result<()> {
         PathBuf::from(args.scene.file_stem().unwrap_or("render".as_ref())).with_extension("exr")
     });
     if output.extension().and_then(|e| e.to_str()) != Some("exr") {
-        bail!(
-            "--output {}: the file name must end in .exr",
-            output.display()
-        );
+        bail!("--output {}: the file name must end in .exr", output.display());
     }
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
-            bail!(
-                "--output {}: directory {} does not exist",
-                output.display(),
-                dir.display()
-            );
+            bail!("--output {}: directory {} does not exist", output.display(), dir.display());
         }
     }
     let pool = thread_pool(args.overrides.threads)?;
     let stop = stop_on_ctrl_c();
-    let bar = if args.quiet {
-        ProgressBar::hidden()
-    } else {
-        progress_bar(&settings)
-    };
+    let bar = if args.quiet { ProgressBar::hidden() } else { progress_bar(&settings) };
     let mut last_snapshot = Instant::now();
     let mut snapshot_error = None;
     let mut on_iteration = |s: &Status| {
@@ -273,11 +251,7 @@ fn render(args: RenderArgs) -> Result<()> {
     }
     let png = image.write(&output, args.exposure)?;
     let i = &image.info;
-    let interrupted = if stop.load(Ordering::Relaxed) {
-        " (interrupted)"
-    } else {
-        ""
-    };
+    let interrupted = if stop.load(Ordering::Relaxed) { " (interrupted)" } else { "" };
     eprintln!(
         "{} iterations{interrupted}, {} light paths, {:.1} s, final radius {:.5}: wrote {} and {}",
         i.iterations,
@@ -288,20 +262,14 @@ fn render(args: RenderArgs) -> Result<()> {
         png.display()
     );
     if i.nonfinite_samples > 0 {
-        eprintln!(
-            "warning: {} non-finite samples were replaced by black",
-            i.nonfinite_samples
-        );
+        eprintln!("warning: {} non-finite samples were replaced by black", i.nonfinite_samples);
     }
     Ok(())
 }
 
 fn progress_bar(settings: &RenderSettings) -> ProgressBar {
     let (len, template) = match settings.iterations {
-        Some(n) => (
-            n,
-            "{elapsed_precise} [{bar:30}] {pos}/{len} it, {per_sec}, ETA {eta} {msg}",
-        ),
+        Some(n) => (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, {per_sec}, ETA {eta} {msg}"),
         None => (
             (settings.time_limit.unwrap_or(1.0) * 1000.0) as u64,
             "{elapsed_precise} [{bar:30}] time budget, ETA {eta} {msg}",
@@ -326,16 +294,11 @@ fn update_bar(bar: &ProgressBar, s: &Status) {
     } else {
         String::new()
     };
-    bar.set_message(format!(
-        "it {} ({rate:.2} it/s), r = {:.5}{volume}",
-        i.iterations, i.radius
-    ));
+    bar.set_message(format!("it {} ({rate:.2} it/s), r = {:.5}{volume}", i.iterations, i.radius));
 }
 
 fn bench(args: BenchArgs) -> Result<()> {
-    let path = args
-        .scene
-        .unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
+    let path = args.scene.unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
     let scene = Scene::load(&path)?;
     let mut o = args.overrides.clone();
     o.iterations = o.iterations.or(Some(8));

@@ -168,11 +168,7 @@ pub fn ray_offset(p: Vec3) -> f32 {
 #[inline]
 pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
     let eps = ray_offset(p);
-    if w.dot(ng) >= 0.0 {
-        p + ng * eps
-    } else {
-        p - ng * eps
-    }
+    if w.dot(ng) >= 0.0 { p + ng * eps } else { p - ng * eps }
 }
 
 #[cfg(test)]
@@ -181,12 +177,7 @@ mod tests {
 
     #[test]
     fn frame_is_orthonormal() {
-        for n in [
-            Vec3::Z,
-            -Vec3::Z,
-            Vec3::X,
-            Vec3::new(0.3, -0.5, 0.8).normalize(),
-        ] {
+        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.5, 0.8).normalize()] {
             let f = Frame::new(n);
             assert!((f.s.dot(f.t)).abs() < 1e-6 && (f.s.dot(f.n)).abs() < 1e-6);
             assert!((f.s.cross(f.t) - f.n).length() < 1e-5);

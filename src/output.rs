@@ -55,45 +55,25 @@ pub struct Image {
 }
 
 fn out_err(path: &Path, message: impl ToString) -> Error {
-    Error::Output {
-        path: path.to_path_buf(),
-        message: message.to_string(),
-    }
+    Error::Output { path: path.to_path_buf(), message: message.to_string() }
 }
 
 /// Linear → sRGB transfer, clamped to [0, 1], as an 8-bit value.
 fn srgb8(v: f32) -> u8 {
-    let v = if v.is_finite() {
-        v.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let s = if v <= 0.003_130_8 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    };
+    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
     (s * 255.0 + 0.5) as u8
 }
 
 impl Image {
     /// The mean of a film's iterations.
     pub fn from_film(film: &Film, info: RenderInfo) -> Self {
-        Self {
-            width: film.width(),
-            height: film.height(),
-            pixels: film.mean(),
-            info,
-        }
+        Self { width: film.width(), height: film.height(), pixels: film.mean(), info }
     }
 
     /// Mean of every pixel and channel.
     pub fn mean(&self) -> f64 {
-        let s: f64 = self
-            .pixels
-            .iter()
-            .map(|p| p.iter().map(|&c| c as f64).sum::<f64>())
-            .sum();
+        let s: f64 = self.pixels.iter().map(|p| p.iter().map(|&c| c as f64).sum::<f64>()).sum();
         s / (3.0 * self.pixels.len() as f64)
     }
 
@@ -119,49 +99,22 @@ impl Image {
         attrs.software_name = Some(Text::from("haze"));
         let info = &self.info;
         let mut put = |k: &str, v: AttributeValue| {
-            attrs
-                .other
-                .insert(Text::from(format!("haze:{k}").as_str()), v);
+            attrs.other.insert(Text::from(format!("haze:{k}").as_str()), v);
         };
-        put(
-            "iterations",
-            AttributeValue::Text(Text::from(info.iterations.to_string().as_str())),
-        );
-        put(
-            "lightPaths",
-            AttributeValue::Text(Text::from(info.light_paths.to_string().as_str())),
-        );
+        put("iterations", AttributeValue::Text(Text::from(info.iterations.to_string().as_str())));
+        put("lightPaths", AttributeValue::Text(Text::from(info.light_paths.to_string().as_str())));
         put("radius", AttributeValue::F64(info.radius));
         put("initialRadius", AttributeValue::F64(info.initial_radius));
         put("alpha", AttributeValue::F64(info.alpha));
         put("volumeRadius", AttributeValue::F64(info.volume_radius));
-        put(
-            "volumeInitialRadius",
-            AttributeValue::F64(info.volume_initial_radius),
-        );
+        put("volumeInitialRadius", AttributeValue::F64(info.volume_initial_radius));
         put("volumeAlpha", AttributeValue::F64(info.volume_alpha));
-        put(
-            "volumeDimension",
-            AttributeValue::I32(info.volume_dimension as i32),
-        );
-        put(
-            "volumeEstimate",
-            AttributeValue::Text(Text::from(info.volume_estimate.name())),
-        );
-        put(
-            "kernel",
-            AttributeValue::Text(Text::from(info.kernel.name())),
-        );
-        put(
-            "seed",
-            AttributeValue::Text(Text::from(info.seed.to_string().as_str())),
-        );
+        put("volumeDimension", AttributeValue::I32(info.volume_dimension as i32));
+        put("volumeEstimate", AttributeValue::Text(Text::from(info.volume_estimate.name())));
+        put("kernel", AttributeValue::Text(Text::from(info.kernel.name())));
+        put("seed", AttributeValue::Text(Text::from(info.seed.to_string().as_str())));
         put("elapsedSeconds", AttributeValue::F64(info.elapsed));
-        let scene = info
-            .scene
-            .as_ref()
-            .map(|p| p.display().to_string())
-            .unwrap_or_default();
+        let scene = info.scene.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
         // EXR text attributes are byte strings; keep the scene path if it is representable.
         if let Some(t) = Text::new_or_none(scene.as_str()) {
             put("scene", AttributeValue::Text(t));
@@ -172,10 +125,7 @@ impl Image {
             Encoding::SMALL_LOSSLESS,
             channels,
         );
-        Image::from_layer(layer)
-            .write()
-            .to_file(path)
-            .map_err(|e| out_err(path, e))
+        Image::from_layer(layer).write().to_file(path).map_err(|e| out_err(path, e))
     }
 
     /// Writes an 8-bit sRGB PNG after scaling by `exposure` and clamping.
@@ -186,14 +136,9 @@ impl Image {
         enc.set_depth(png::BitDepth::Eight);
         enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         let mut writer = enc.write_header().map_err(|e| out_err(path, e))?;
-        let data: Vec<u8> = self
-            .pixels
-            .iter()
-            .flat_map(|p| p.map(|c| srgb8(c * exposure)))
-            .collect();
-        writer
-            .write_image_data(&data)
-            .map_err(|e| out_err(path, e))?;
+        let data: Vec<u8> =
+            self.pixels.iter().flat_map(|p| p.map(|c| srgb8(c * exposure))).collect();
+        writer.write_image_data(&data).map_err(|e| out_err(path, e))?;
         writer.finish().map_err(|e| out_err(path, e))
     }
 }

@@ -55,9 +55,7 @@ impl std::str::FromStr for VolumeEstimate {
         match s {
             "beam" => Ok(VolumeEstimate::Beam),
             "point" => Ok(VolumeEstimate::Point),
-            _ => Err(format!(
-                "unknown volume estimate `{s}`; expected \"beam\" or \"point\""
-            )),
+            _ => Err(format!("unknown volume estimate `{s}`; expected \"beam\" or \"point\"")),
         }
     }
 }
@@ -126,10 +124,7 @@ pub struct SettingError {
 }
 
 fn err(key: &'static str, message: impl Into<String>) -> Result<(), SettingError> {
-    Err(SettingError {
-        key,
-        message: message.into(),
-    })
+    Err(SettingError { key, message: message.into() })
 }
 
 fn check_radius(r: Radius, abs: &'static str, frac: &'static str) -> Result<(), SettingError> {
@@ -152,17 +147,11 @@ impl RenderSettings {
         }
         if let Some(t) = self.time_limit {
             if !(t.is_finite() && t > 0.0) {
-                return err(
-                    "time_limit",
-                    format!("must be a positive number of seconds, got {t}"),
-                );
+                return err("time_limit", format!("must be a positive number of seconds, got {t}"));
             }
         }
         if self.iterations.is_none() && self.time_limit.is_none() {
-            return err(
-                "iterations",
-                "give an iteration count, a time limit, or both",
-            );
+            return err("iterations", "give an iteration count, a time limit, or both");
         }
         if self.photons == 0 {
             return err("photons", "must be at least 1");
@@ -177,24 +166,14 @@ impl RenderSettings {
             );
         }
         if !(self.alpha > 0.0 && self.alpha < 1.0) {
-            return err(
-                "alpha",
-                format!("must lie strictly between 0 and 1, got {}", self.alpha),
-            );
+            return err("alpha", format!("must lie strictly between 0 and 1, got {}", self.alpha));
         }
         check_radius(self.radius, "radius", "radius_fraction")?;
-        check_radius(
-            self.volume_radius,
-            "volume_radius",
-            "volume_radius_fraction",
-        )?;
+        check_radius(self.volume_radius, "volume_radius", "volume_radius_fraction")?;
         if !(self.volume_alpha > 0.0 && self.volume_alpha < 1.0) {
             return err(
                 "volume_alpha",
-                format!(
-                    "must lie strictly between 0 and 1, got {}",
-                    self.volume_alpha
-                ),
+                format!("must lie strictly between 0 and 1, got {}", self.volume_alpha),
             );
         }
         if !(1..=3).contains(&self.volume_dimension) {

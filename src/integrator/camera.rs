@@ -50,12 +50,7 @@ pub struct CameraPass {
 /// Radiance along one eye path for pixel (x, y).
 fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32) -> Rgb {
     let width = scene.camera.resolution[0];
-    let mut s = Sampler::new(
-        pass.seed,
-        Purpose::Camera,
-        pass.iteration,
-        (y * width + x) as u64,
-    );
+    let mut s = Sampler::new(pass.seed, Purpose::Camera, pass.iteration, (y * width + x) as u64);
     let pixel = Vec2::new(x as f32, y as f32) + s.next_2d();
     let ray = scene.camera.generate_ray(pixel, s.next_2d());
     let (mut o, mut d) = (ray.o, ray.d);
@@ -96,23 +91,14 @@ fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32)
         }
         let material = &scene.materials[shape.material as usize];
         if material.is_diffuse() {
-            let n = if wo.dot(hit.ng) >= 0.0 {
-                hit.ng
-            } else {
-                -hit.ng
-            };
+            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
             let f = material.diffuse_f();
             l += beta * surface_radiance(maps.surface, hit.p, n, f, &pass.surface);
             break;
         }
-        let Some(bs) = material.sample(
-            wo,
-            hit.ng,
-            hit.ns,
-            s.next_2d(),
-            s.next_f32(),
-            Transport::Radiance,
-        ) else {
+        let Some(bs) =
+            material.sample(wo, hit.ng, hit.ns, s.next_2d(), s.next_f32(), Transport::Radiance)
+        else {
             break;
         };
         beta *= bs.weight;
@@ -136,22 +122,19 @@ pub fn render_pass(
     image: &mut [Rgb],
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    image
-        .par_chunks_mut(width)
-        .enumerate()
-        .for_each(|(y, row)| {
-            if stop.load(Ordering::Relaxed) {
-                return;
-            }
-            for (x, px) in row.iter_mut().enumerate() {
-                let l = pixel_radiance(scene, maps, pass, x as u32, y as u32);
-                *px = if l.is_finite() {
-                    l
-                } else {
-                    nonfinite.fetch_add(1, Ordering::Relaxed);
-                    Rgb::ZERO
-                };
-            }
-        });
+    image.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
+        for (x, px) in row.iter_mut().enumerate() {
+            let l = pixel_radiance(scene, maps, pass, x as u32, y as u32);
+            *px = if l.is_finite() {
+                l
+            } else {
+                nonfinite.fetch_add(1, Ordering::Relaxed);
+                Rgb::ZERO
+            };
+        }
+    });
     !stop.load(Ordering::Relaxed)
 }

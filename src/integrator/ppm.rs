@@ -37,9 +37,7 @@ pub fn render(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<Image> {
-    settings
-        .validate()
-        .map_err(|e| Error::Settings(format!("{}: {}", e.key, e.message)))?;
+    settings.validate().map_err(|e| Error::Settings(format!("{}: {}", e.key, e.message)))?;
     let start = Instant::now();
     let [width, height] = scene.camera.resolution;
     let r1 = resolve_radius(scene, settings.radius);
@@ -57,9 +55,7 @@ pub fn render(
     let mut iteration = 0u64;
     loop {
         if settings.iterations.is_some_and(|n| iteration >= n)
-            || settings
-                .time_limit
-                .is_some_and(|t| start.elapsed().as_secs_f64() >= t)
+            || settings.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t)
             || stop.load(Ordering::Relaxed)
         {
             break;

@@ -42,28 +42,16 @@ impl Homogeneous {
         let sigma_t = self.sigma_t();
         let c = ((u_channel * 3.0) as usize).min(2);
         let s = sigma_t[c];
-        let t = if s > 0.0 {
-            -(1.0 - u).ln() / s
-        } else {
-            f32::INFINITY
-        };
+        let t = if s > 0.0 { -(1.0 - u).ln() / s } else { f32::INFINITY };
         if t < t_max {
             let tr = (-sigma_t * t).exp();
             let pdf = (sigma_t * tr).element_sum() / 3.0;
-            FreeFlight {
-                t,
-                scattered: true,
-                weight: tr / pdf,
-            }
+            FreeFlight { t, scattered: true, weight: tr / pdf }
         } else {
             let tr = self.transmittance(t_max);
             let p_pass = tr.element_sum() / 3.0;
             let weight = if p_pass > 0.0 { tr / p_pass } else { Rgb::ZERO };
-            FreeFlight {
-                t: t_max,
-                scattered: false,
-                weight,
-            }
+            FreeFlight { t: t_max, scattered: false, weight }
         }
     }
 }

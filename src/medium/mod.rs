@@ -79,9 +79,7 @@ impl Medium {
     #[inline]
     pub fn segment(&self, _o: Vec3, _d: Vec3, _t_max: f32) -> SegmentTransmittance {
         match self {
-            Medium::Homogeneous(h) => SegmentTransmittance::Exponential {
-                sigma_t: h.sigma_t(),
-            },
+            Medium::Homogeneous(h) => SegmentTransmittance::Exponential { sigma_t: h.sigma_t() },
         }
     }
 

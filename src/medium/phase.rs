@@ -53,10 +53,7 @@ impl HenyeyGreenstein {
         let phi = 2.0 * PI * u.y;
         let local = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
         let d_out = Frame::new(d_in).to_world(local).normalize();
-        PhaseSample {
-            d_out,
-            value: self.eval_cos(cos_theta),
-        }
+        PhaseSample { d_out, value: self.eval_cos(cos_theta) }
     }
 }
 

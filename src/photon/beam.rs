@@ -83,9 +83,7 @@ impl BeamMap {
         }
         let (lo, hi) = photons
             .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(p.p), hi.max(p.p))
-            });
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.p), hi.max(p.p)));
         self.lo = lo - Vec3::splat(radius);
         self.hi = hi + Vec3::splat(radius);
         let extent = (self.hi - self.lo).max(Vec3::splat(1e-6));
@@ -98,9 +96,7 @@ impl BeamMap {
             coord.extend(photons.iter().map(|p| p.p[axis]));
             let n = coord.len();
             let a = *coord.select_nth_unstable_by(n / 20, f32::total_cmp).1;
-            let b = *coord
-                .select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp)
-                .1;
+            let b = *coord.select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp).1;
             core[axis] = (b - a).max(radius).max(1e-6 * extent.max_element());
         }
         let volume = core.x * core.y * core.z / 0.9f32.powi(3);
@@ -176,11 +172,7 @@ impl BeamMap {
         let boundary = |c: i32, s: i32, axis: usize| -> f32 {
             let edge = self.lo[axis] + (c + if s > 0 { 1 } else { 0 }) as f32 * self.cell;
             let t = (edge - o[axis]) * inv_d[axis];
-            if d[axis].abs() < 1e-30 {
-                f32::INFINITY
-            } else {
-                t
-            }
+            if d[axis].abs() < 1e-30 { f32::INFINITY } else { t }
         };
         let mut next = Vec3::new(
             boundary(cell.x, step.x, 0),

@@ -20,13 +20,7 @@ pub struct PhotonGrid<P> {
 
 impl<P> Default for PhotonGrid<P> {
     fn default() -> Self {
-        Self {
-            inv_cell: 1.0,
-            mask: 0,
-            start: Vec::new(),
-            photons: Vec::new(),
-            keys: Vec::new(),
-        }
+        Self { inv_cell: 1.0, mask: 0, start: Vec::new(), photons: Vec::new(), keys: Vec::new() }
     }
 }
 
@@ -63,11 +57,7 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
         self.mask = buckets - 1;
         let mut keys = std::mem::take(&mut self.keys);
         keys.clear();
-        keys.extend(
-            photons
-                .iter()
-                .map(|ph| self.bucket(self.cell_of(ph.position())) as u32),
-        );
+        keys.extend(photons.iter().map(|ph| self.bucket(self.cell_of(ph.position())) as u32));
         self.keys = keys;
         self.start.clear();
         self.start.resize(buckets + 1, 0);
@@ -107,12 +97,8 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
         }
         let r2 = radius * radius;
         // Lower corner of the 2×2×2 block of cells touching the ball.
-        let lo = ((p - Vec3::splat(radius)) * self.inv_cell)
-            .floor()
-            .as_ivec3();
-        let hi = ((p + Vec3::splat(radius)) * self.inv_cell)
-            .floor()
-            .as_ivec3();
+        let lo = ((p - Vec3::splat(radius)) * self.inv_cell).floor().as_ivec3();
+        let hi = ((p + Vec3::splat(radius)) * self.inv_cell).floor().as_ivec3();
         let mut seen = [usize::MAX; 8];
         let mut n_seen = 0;
         for z in lo.z..=hi.z {
@@ -162,10 +148,7 @@ mod tests {
                 let c = photons[q * 7].p + Vec3::new(0.01, -0.02, 0.03);
                 let mut found = 0;
                 grid.query(c, r, |_, _| found += 1);
-                let want = photons
-                    .iter()
-                    .filter(|ph| (ph.p - c).length_squared() < r * r)
-                    .count();
+                let want = photons.iter().filter(|ph| (ph.p - c).length_squared() < r * r).count();
                 assert_eq!(found, want, "r={r} q={q}");
             }
         }

@@ -45,10 +45,7 @@ impl LightSampler {
     /// A light index and its probability.
     pub fn pick(&self, u: f32) -> (usize, f32) {
         let target = u * self.total;
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= target)
-            .min(self.cdf.len() - 1);
+        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         (i, (self.cdf[i] - lo) / self.total)
     }
@@ -81,11 +78,7 @@ pub struct Photons {
 #[inline]
 fn roulette(before: Rgb, after: Rgb, u: f32) -> Option<Rgb> {
     let q = (after.max_element() / before.max_element()).min(1.0);
-    if q > 0.0 && u < q {
-        Some(after / q)
-    } else {
-        None
-    }
+    if q > 0.0 && u < q { Some(after / q) } else { None }
 }
 
 /// Traces one light path, storing its photons in `out`.
@@ -104,11 +97,7 @@ fn trace_path(
         return;
     }
     let mut medium = scene.light_media[li];
-    let mut o = if e.n == glam::Vec3::ZERO {
-        e.p
-    } else {
-        offset_origin(e.p, e.n, e.d)
-    };
+    let mut o = if e.n == glam::Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
     let mut d = e.d;
     for _ in 0..pass.max_depth {
         let hit = scene.intersect(o, d, f32::INFINITY);
@@ -119,16 +108,15 @@ fn trace_path(
             if flight.scattered {
                 let p = o + d * flight.t;
                 beta *= flight.weight;
+                let sigma_s = m.sigma_s(p);
                 // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s.
-                out.volume.push(VolumePhoton {
-                    p,
-                    d,
-                    beta,
-                    medium: id,
-                });
+                // Where σ_s = 0 the photon could only ever be weighted by zero: skip it.
+                if sigma_s.max_element() > 0.0 {
+                    out.volume.push(VolumePhoton { p, d, beta, medium: id });
+                }
                 let ps = m.phase().sample(d, s.next_2d());
                 // Phase sampling is exact, so the scattering weight is σ_s alone.
-                let Some(b) = roulette(beta, beta * m.sigma_s(p), s.next_f32()) else {
+                let Some(b) = roulette(beta, beta * sigma_s, s.next_f32()) else {
                     return;
                 };
                 beta = b;
@@ -147,17 +135,8 @@ fn trace_path(
         let material = &scene.materials[shape.material as usize];
         if material.is_diffuse() {
             // Power convention (see `Photon`): store the path throughput as it arrives.
-            let n = if wo.dot(hit.ng) >= 0.0 {
-                hit.ng
-            } else {
-                -hit.ng
-            };
-            out.surface.push(Photon {
-                p: hit.p,
-                wi: wo,
-                n,
-                beta,
-            });
+            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+            out.surface.push(Photon { p: hit.p, wi: wo, n, beta });
         }
         let u = s.next_2d();
         let u_lobe = s.next_f32();

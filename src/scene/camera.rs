@@ -74,14 +74,7 @@ impl Camera {
         let forward = (look_at - position).normalize();
         let right = forward.cross(up).normalize();
         let up = right.cross(forward);
-        Self {
-            projection,
-            position,
-            forward,
-            right,
-            up,
-            resolution,
-        }
+        Self { projection, position, forward, right, up, resolution }
     }
 
     /// Width / height.
@@ -96,28 +89,18 @@ impl Camera {
         let sx = 2.0 * pixel.x / w as f32 - 1.0;
         let sy = 1.0 - 2.0 * pixel.y / h as f32;
         match self.projection {
-            Projection::Perspective {
-                tan_half_fov,
-                lens_radius,
-                focus_distance,
-            } => {
+            Projection::Perspective { tan_half_fov, lens_radius, focus_distance } => {
                 let d = (self.forward
                     + self.right * (sx * tan_half_fov * self.aspect())
                     + self.up * (sy * tan_half_fov))
                     .normalize();
                 if lens_radius <= 0.0 {
-                    return CameraRay {
-                        o: self.position,
-                        d,
-                    };
+                    return CameraRay { o: self.position, d };
                 }
                 let focus = self.position + d * (focus_distance / d.dot(self.forward));
                 let l = sample_concentric_disc(lens) * lens_radius;
                 let o = self.position + self.right * l.x + self.up * l.y;
-                CameraRay {
-                    o,
-                    d: (focus - o).normalize(),
-                }
+                CameraRay { o, d: (focus - o).normalize() }
             }
             Projection::Orthographic { height } => {
                 let o = self.position
@@ -158,11 +141,7 @@ mod tests {
     #[test]
     fn thin_lens_rays_meet_on_the_focus_plane() {
         let cam = Camera::new(
-            Projection::Perspective {
-                tan_half_fov: 0.5,
-                lens_radius: 0.1,
-                focus_distance: 3.0,
-            },
+            Projection::Perspective { tan_half_fov: 0.5, lens_radius: 0.1, focus_distance: 3.0 },
             Vec3::ZERO,
             -Vec3::Z,
             Vec3::Y,

@@ -256,11 +256,7 @@ pub struct FormatError {
 type Value<'i> = Spanned<DeValue<'i>>;
 
 fn error(key: &str, at: usize, message: impl Into<String>) -> FormatError {
-    FormatError {
-        key: key.to_string(),
-        at: Some(at),
-        message: message.into(),
-    }
+    FormatError { key: key.to_string(), at: Some(at), message: message.into() }
 }
 
 /// Deserialises one value, keeping the line of whatever inside it is wrong.
@@ -275,29 +271,17 @@ fn typed<T: DeserializeOwned>(v: &Value<'_>, key: &str) -> Result<T, FormatError
 /// The `type` of a table, checked against `kinds`.
 fn kind<'a>(v: &'a Value<'_>, key: &str, kinds: &[&str]) -> Result<&'a str, FormatError> {
     let table = v.get_ref().as_table().ok_or_else(|| {
-        error(
-            key,
-            v.span().start,
-            format!("expected a table, found {}", v.get_ref().type_str()),
-        )
+        error(key, v.span().start, format!("expected a table, found {}", v.get_ref().type_str()))
     })?;
     let t = table.get("type").ok_or_else(|| {
-        error(
-            key,
-            v.span().start,
-            format!("missing `type` (one of {})", kinds.join(", ")),
-        )
+        error(key, v.span().start, format!("missing `type` (one of {})", kinds.join(", ")))
     })?;
     let name = t
         .get_ref()
         .as_str()
         .ok_or_else(|| error(key, t.span().start, "`type` must be a string"))?;
     if !kinds.contains(&name) {
-        let list = kinds
-            .iter()
-            .map(|k| format!("\"{k}\""))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let list = kinds.iter().map(|k| format!("\"{k}\"")).collect::<Vec<_>>().join(", ");
         return Err(error(
             &format!("{key}.type"),
             t.span().start,
@@ -313,10 +297,7 @@ fn array<'a, 'i>(v: &'a Value<'i>, key: &str) -> Result<&'a [Value<'i>], FormatE
         other => Err(error(
             key,
             v.span().start,
-            format!(
-                "expected an array of tables ([[{key}]]), found {}",
-                other.type_str()
-            ),
+            format!("expected an array of tables ([[{key}]]), found {}", other.type_str()),
         )),
     }
 }
@@ -357,11 +338,7 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
     let mut materials = Vec::new();
     if let Some(m) = root.get("materials") {
         let table = m.get_ref().as_table().ok_or_else(|| {
-            error(
-                "materials",
-                m.span().start,
-                "expected a table of named materials",
-            )
+            error("materials", m.span().start, "expected a table of named materials")
         })?;
         for (name, v) in table.iter() {
             let name = name.get_ref().to_string();
@@ -430,12 +407,5 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
             lights.push((def, v.span()));
         }
     }
-    Ok(SceneFile {
-        camera: (camera_def, camera.span()),
-        render,
-        materials,
-        media,
-        shapes,
-        lights,
-    })
+    Ok(SceneFile { camera: (camera_def, camera.span()), render, materials, media, shapes, lights })
 }

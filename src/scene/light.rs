@@ -65,9 +65,7 @@ impl Emitter {
         match self {
             Emitter::Triangles { triangles, cdf } => {
                 let target = u_pick * self.area();
-                let i = cdf
-                    .partition_point(|&c| c <= target)
-                    .min(triangles.len() - 1);
+                let i = cdf.partition_point(|&c| c <= target).min(triangles.len() - 1);
                 let [a, b, c] = triangles[i];
                 let w = sample_triangle(u);
                 let p = a * w.x + b * w.y + c * (1.0 - w.x - w.y);
@@ -144,18 +142,11 @@ impl Light {
     pub fn power(&self) -> Rgb {
         match self {
             Light::Point { intensity, .. } => *intensity * 4.0 * PI,
-            Light::Spot {
-                intensity,
-                cos_max,
-                cos_start,
-                ..
-            } => *intensity * spot_solid_angle(*cos_max, *cos_start),
-            Light::Directional {
-                irradiance, radius, ..
-            } => *irradiance * PI * radius * radius,
-            Light::Area {
-                radiance, emitter, ..
-            } => *radiance * PI * emitter.area(),
+            Light::Spot { intensity, cos_max, cos_start, .. } => {
+                *intensity * spot_solid_angle(*cos_max, *cos_start)
+            }
+            Light::Directional { irradiance, radius, .. } => *irradiance * PI * radius * radius,
+            Light::Area { radiance, emitter, .. } => *radiance * PI * emitter.area(),
         }
     }
 
@@ -168,13 +159,7 @@ impl Light {
                 n: Vec3::ZERO,
                 beta: self.power(),
             },
-            Light::Spot {
-                position,
-                frame,
-                intensity,
-                cos_max,
-                cos_start,
-            } => {
+            Light::Spot { position, frame, intensity, cos_max, cos_start } => {
                 let local = sample_uniform_cone(u_dir, *cos_max);
                 let falloff = smoothstep(*cos_max, *cos_start, local.z);
                 let inv_pdf = 2.0 * PI * (1.0 - cos_max);
@@ -185,32 +170,17 @@ impl Light {
                     beta: *intensity * falloff * inv_pdf,
                 }
             }
-            Light::Directional {
-                direction,
-                center,
-                radius,
-                ..
-            } => {
+            Light::Directional { direction, center, radius, .. } => {
                 let frame = Frame::new(*direction);
                 let disc = sample_concentric_disc(u_pos) * *radius;
                 let p =
                     *center + frame.to_world(Vec3::new(disc.x, disc.y, 0.0)) - *direction * *radius;
-                Emission {
-                    p,
-                    d: *direction,
-                    n: Vec3::ZERO,
-                    beta: self.power(),
-                }
+                Emission { p, d: *direction, n: Vec3::ZERO, beta: self.power() }
             }
             Light::Area { emitter, .. } => {
                 let (p, n) = emitter.sample(u_pick, u_pos);
                 let d = Frame::new(n).to_world(sample_cosine_hemisphere(u_dir));
-                Emission {
-                    p,
-                    d,
-                    n,
-                    beta: self.power(),
-                }
+                Emission { p, d, n, beta: self.power() }
             }
         }
     }
@@ -218,12 +188,9 @@ impl Light {
     /// Intensity of a spot light towards local cos θ (W/sr); used by tests and docs.
     pub fn spot_intensity(&self, cos_theta: f32) -> Rgb {
         match self {
-            Light::Spot {
-                intensity,
-                cos_max,
-                cos_start,
-                ..
-            } => *intensity * smoothstep(*cos_max, *cos_start, cos_theta),
+            Light::Spot { intensity, cos_max, cos_start, .. } => {
+                *intensity * smoothstep(*cos_max, *cos_start, cos_theta)
+            }
             _ => Rgb::ZERO,
         }
     }

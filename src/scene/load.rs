@@ -21,21 +21,15 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 pub(super) fn load_file(path: &Path) -> Result<Scene> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let base = path.parent().unwrap_or(Path::new("."));
     load_str(&text, path, base)
 }
 
 /// 1-based line of byte offset `at` in `text`.
 fn line_of(text: &str, at: usize) -> usize {
-    text[..at.min(text.len())]
-        .bytes()
-        .filter(|&b| b == b'\n')
-        .count()
-        + 1
+    text[..at.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1
 }
 
 /// Maps builder errors (keys without a place) to the file and the line of the table they came
@@ -60,12 +54,7 @@ impl Places<'_> {
                     })
                     .max_by_key(|(prefix, _)| prefix.len())
                     .map(|(_, span)| line_of(self.text, span.start));
-                Error::Invalid {
-                    path: self.path.to_path_buf(),
-                    line,
-                    key,
-                    message,
-                }
+                Error::Invalid { path: self.path.to_path_buf(), line, key, message }
             }
             other => other,
         }
@@ -92,25 +81,15 @@ pub(super) fn load_str(text: &str, path: &Path, base_dir: &Path) -> Result<Scene
     let file = format::read(text).map_err(|e| Error::Parse {
         path: path.to_path_buf(),
         line: e.at.map(|at| line_of(text, at)),
-        message: if e.key.is_empty() {
-            e.message
-        } else {
-            format!("{}: {}", e.key, e.message)
-        },
+        message: if e.key.is_empty() { e.message } else { format!("{}: {}", e.key, e.message) },
     })?;
-    let mut places = Places {
-        text,
-        path,
-        tables: Vec::new(),
-    };
+    let mut places = Places { text, path, tables: Vec::new() };
     places.tables.push(("camera".into(), file.camera.1.clone()));
     if let Some((_, span)) = &file.render {
         places.tables.push(("render".into(), span.clone()));
     }
     for (name, _, span) in &file.materials {
-        places
-            .tables
-            .push((format!("materials.{name}"), span.clone()));
+        places.tables.push((format!("materials.{name}"), span.clone()));
     }
     for (name, _, span) in &file.media {
         places.tables.push((format!("media.{name}"), span.clone()));
@@ -133,12 +112,10 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
     b.settings(settings)?;
     for (name, m, _) in &file.materials {
         let m = match m {
-            MaterialDef::Diffuse(d) => Material::Diffuse {
-                albedo: color(d.albedo),
-            },
-            MaterialDef::Mirror(d) => Material::Mirror {
-                reflectance: d.reflectance.map(color).unwrap_or(Vec3::ONE),
-            },
+            MaterialDef::Diffuse(d) => Material::Diffuse { albedo: color(d.albedo) },
+            MaterialDef::Mirror(d) => {
+                Material::Mirror { reflectance: d.reflectance.map(color).unwrap_or(Vec3::ONE) }
+            }
             MaterialDef::Dielectric(d) => Material::Dielectric { ior: d.ior },
             MaterialDef::Interface => Material::Interface,
         };
@@ -153,10 +130,7 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
         match name {
             None => Ok(None),
             Some(n) => b.medium_index(n).map(Some).ok_or_else(|| {
-                places.error(
-                    key,
-                    format!("undefined medium `{n}` (defined: {known_media:?})"),
-                )
+                places.error(key, format!("undefined medium `{n}` (defined: {known_media:?})"))
             }),
         }
     };
@@ -203,10 +177,9 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
     }
     for ((l, _), medium) in file.lights.iter().zip(light_media) {
         let desc = match l {
-            LightDef::Point(d) => LightDesc::Point {
-                position: d.position.into(),
-                power: color(d.power),
-            },
+            LightDef::Point(d) => {
+                LightDesc::Point { position: d.position.into(), power: color(d.power) }
+            }
             LightDef::Spot(d) => LightDesc::Spot {
                 position: d.position.into(),
                 look_at: d.look_at.into(),
@@ -235,18 +208,12 @@ fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium>
                 return Err(err("albedo", &format!("must lie in [0, 1], got {albedo}")));
             }
             if !t.is_finite() || t.min_element() < 0.0 {
-                return Err(err(
-                    "sigma_t",
-                    &format!("must be finite and non-negative, got {t}"),
-                ));
+                return Err(err("sigma_t", &format!("must be finite and non-negative, got {t}")));
             }
             ((Vec3::ONE - albedo) * t, albedo * t)
         }
         (None, None, None, None) => {
-            return Err(err(
-                "sigma_s",
-                "give sigma_a and sigma_s, or albedo and sigma_t",
-            ));
+            return Err(err("sigma_s", "give sigma_a and sigma_s, or albedo and sigma_t"));
         }
         (Some(_), None, ..) => return Err(err("sigma_s", "sigma_a needs sigma_s")),
         (None, Some(_), ..) => return Err(err("sigma_a", "sigma_s needs sigma_a")),
@@ -260,11 +227,7 @@ fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium>
         }
     };
     let g = d.g.unwrap_or(0.0);
-    Ok(Medium::Homogeneous(Homogeneous {
-        sigma_a,
-        sigma_s,
-        phase: HenyeyGreenstein { g },
-    }))
+    Ok(Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase: HenyeyGreenstein { g } }))
 }
 
 /// Largest image: 64 Mpixel (the film holds 24 bytes per pixel).
@@ -275,11 +238,7 @@ fn camera(def: &CameraDef, places: &Places) -> Result<Camera> {
         CameraDef::Perspective(d) => (d.position, d.look_at, d.up, d.resolution),
         CameraDef::Orthographic(d) => (d.position, d.look_at, d.up, d.resolution),
     };
-    let (position, look_at, up) = (
-        Vec3::from(position),
-        Vec3::from(look_at),
-        up.map(Vec3::from),
-    );
+    let (position, look_at, up) = (Vec3::from(position), Vec3::from(look_at), up.map(Vec3::from));
     let up = up.unwrap_or(Vec3::Y);
     let err = |k: &str, m: String| places.error(format!("camera.{k}"), m);
     for (k, v) in [("position", position), ("look_at", look_at), ("up", up)] {
@@ -292,10 +251,7 @@ fn camera(def: &CameraDef, places: &Places) -> Result<Camera> {
         return Err(err("look_at", "must differ from position".into()));
     }
     if (look_at - position).normalize().cross(up).length() < 1e-6 {
-        return Err(err(
-            "up",
-            "must not be parallel to the viewing direction".into(),
-        ));
+        return Err(err("up", "must not be parallel to the viewing direction".into()));
     }
     let pixels = resolution[0] as u64 * resolution[1] as u64;
     if resolution[0] == 0 || resolution[1] == 0 || pixels > MAX_PIXELS {
@@ -305,17 +261,9 @@ fn camera(def: &CameraDef, places: &Places) -> Result<Camera> {
         ));
     }
     let projection = match def {
-        CameraDef::Perspective(PerspectiveDef {
-            fov,
-            aperture,
-            focus_distance,
-            ..
-        }) => {
+        CameraDef::Perspective(PerspectiveDef { fov, aperture, focus_distance, .. }) => {
             if !(*fov > 0.0 && *fov < 180.0) {
-                return Err(err(
-                    "fov",
-                    format!("must lie in (0, 180) degrees, got {fov}"),
-                ));
+                return Err(err("fov", format!("must lie in (0, 180) degrees, got {fov}")));
             }
             let lens_radius = aperture.unwrap_or(0.0);
             if !(lens_radius.is_finite() && lens_radius >= 0.0) {
@@ -369,22 +317,18 @@ fn settings(def: Option<&RenderDef>, places: &Places) -> Result<RenderSettings> 
         s.radius = Radius::Fraction(f);
     }
     if d.radius.is_some() && d.radius_fraction.is_some() {
-        return Err(places.error(
-            "render.radius".into(),
-            "give `radius` or `radius_fraction`, not both",
-        ));
+        return Err(
+            places.error("render.radius".into(), "give `radius` or `radius_fraction`, not both")
+        );
     }
     if let Some(k) = &d.kernel {
-        s.kernel = k
-            .parse()
-            .map_err(|m: String| places.error("render.kernel".into(), m))?;
+        s.kernel = k.parse().map_err(|m: String| places.error("render.kernel".into(), m))?;
     }
     s.max_depth = d.max_depth.unwrap_or(s.max_depth);
     s.seed = d.seed.unwrap_or(s.seed);
     if let Some(e) = &d.volume_estimate {
-        s.volume_estimate = e
-            .parse()
-            .map_err(|m: String| places.error("render.volume_estimate".into(), m))?;
+        s.volume_estimate =
+            e.parse().map_err(|m: String| places.error("render.volume_estimate".into(), m))?;
     }
     s.volume_alpha = d.volume_alpha.unwrap_or(s.volume_alpha);
     if d.volume_radius.is_some() && d.volume_radius_fraction.is_some() {
@@ -411,16 +355,11 @@ fn transform(t: &TransformDef, key: &str, places: &Places) -> Result<glam::Affin
     };
     let rotate = Vec3::from(t.rotate.unwrap_or([0.0; 3]));
     let translate = Vec3::from(t.translate.unwrap_or([0.0; 3]));
-    for (k, v) in [
-        ("scale", scale),
-        ("rotate", rotate),
-        ("translate", translate),
-    ] {
+    for (k, v) in [("scale", scale), ("rotate", rotate), ("translate", translate)] {
         if !v.is_finite() {
-            return Err(places.error(
-                format!("{key}.transform.{k}"),
-                format!("must be finite, got {v}"),
-            ));
+            return Err(
+                places.error(format!("{key}.transform.{k}"), format!("must be finite, got {v}"))
+            );
         }
     }
     if scale.abs().min_element() == 0.0 {
@@ -445,37 +384,17 @@ fn shape<'a>(
         }
     };
     Ok(match def {
-        ShapeDef::Rectangle(RectangleDef {
-            size,
-            material,
-            emission,
-            transform: t,
-            ..
-        }) => {
+        ShapeDef::Rectangle(RectangleDef { size, material, emission, transform: t, .. }) => {
             let [w, h] = size.unwrap_or([1.0, 1.0]);
             positive("size", &[w, h])?;
             let m = transform(t, key, places)?;
-            (
-                Geometry::Mesh(shape::rectangle(w, h).transformed(&m)),
-                material,
-                *emission,
-            )
+            (Geometry::Mesh(shape::rectangle(w, h).transformed(&m)), material, *emission)
         }
-        ShapeDef::Box(BoxDef {
-            size,
-            material,
-            emission,
-            transform: t,
-            ..
-        }) => {
+        ShapeDef::Box(BoxDef { size, material, emission, transform: t, .. }) => {
             let s = size.unwrap_or([1.0; 3]);
             positive("size", &s)?;
             let m = transform(t, key, places)?;
-            (
-                Geometry::Mesh(shape::cuboid(s.into()).transformed(&m)),
-                material,
-                *emission,
-            )
+            (Geometry::Mesh(shape::cuboid(s.into()).transformed(&m)), material, *emission)
         }
         ShapeDef::Sphere(SphereDef {
             center,
@@ -511,10 +430,7 @@ fn shape<'a>(
                             "an analytic sphere takes only a uniform scale (use `tessellate` for ellipsoids)",
                         ));
                     }
-                    Geometry::Sphere {
-                        center: m.transform_point3(center),
-                        radius: radius * s.x,
-                    }
+                    Geometry::Sphere { center: m.transform_point3(center), radius: radius * s.x }
                 }
             };
             (geometry, material, *emission)
@@ -531,20 +447,12 @@ fn shape<'a>(
             let m = transform(t, key, places)?;
             let mesh = Mesh {
                 positions: vertices.iter().map(|&v| Vec3::from(v)).collect(),
-                normals: normals
-                    .as_ref()
-                    .map(|n| n.iter().map(|&v| Vec3::from(v)).collect()),
+                normals: normals.as_ref().map(|n| n.iter().map(|&v| Vec3::from(v)).collect()),
                 triangles: triangles.clone(),
             };
             (Geometry::Mesh(mesh.transformed(&m)), material, *emission)
         }
-        ShapeDef::Obj(ObjDef {
-            file,
-            material,
-            emission,
-            transform: t,
-            ..
-        }) => {
+        ShapeDef::Obj(ObjDef { file, material, emission, transform: t, .. }) => {
             let m = transform(t, key, places)?;
             let mesh = load_obj(&base_dir.join(file))?;
             (Geometry::Mesh(mesh.transformed(&m)), material, *emission)
@@ -554,20 +462,11 @@ fn shape<'a>(
 
 /// Loads every object of a Wavefront OBJ file as one triangle mesh.
 fn load_obj(path: &Path) -> Result<Mesh> {
-    let mesh_err = |message: String| Error::Mesh {
-        path: path.to_path_buf(),
-        message,
-    };
+    let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
     if !path.is_file() {
-        return Err(mesh_err(
-            "no such file (OBJ paths are relative to the scene file)".into(),
-        ));
+        return Err(mesh_err("no such file (OBJ paths are relative to the scene file)".into()));
     }
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ..Default::default()
-    };
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, _) = tobj::load_obj(path, &opts).map_err(|e| mesh_err(e.to_string()))?;
     let mut mesh = Mesh::default();
     let mut all_normals = true;
@@ -576,17 +475,9 @@ fn load_obj(path: &Path) -> Result<Mesh> {
         let m = &model.mesh;
         let base = mesh.positions.len() as u32;
         let count = m.positions.len() / 3;
-        mesh.positions.extend(
-            m.positions
-                .chunks_exact(3)
-                .map(|c| Vec3::new(c[0], c[1], c[2])),
-        );
+        mesh.positions.extend(m.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
         if m.normals.len() == m.positions.len() {
-            normals.extend(
-                m.normals
-                    .chunks_exact(3)
-                    .map(|c| Vec3::new(c[0], c[1], c[2])),
-            );
+            normals.extend(m.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
         } else {
             all_normals = false;
         }
@@ -605,10 +496,7 @@ fn load_obj(path: &Path) -> Result<Mesh> {
     }
     if all_normals {
         // Zero-length normals in the file would give NaN shading normals: ignore the normals then.
-        if normals
-            .iter()
-            .all(|n| n.is_finite() && n.length_squared() > 0.0)
-        {
+        if normals.iter().all(|n| n.is_finite() && n.length_squared() > 0.0) {
             mesh.normals = Some(normals.iter().map(|n| n.normalize()).collect());
         }
     }

@@ -91,11 +91,7 @@ impl Material {
         match self {
             Material::Diffuse { albedo } => {
                 // Work on the side of wo.
-                let (ng, ns) = if wo.dot(ng) >= 0.0 {
-                    (ng, ns)
-                } else {
-                    (-ng, -ns)
-                };
+                let (ng, ns) = if wo.dot(ng) >= 0.0 { (ng, ns) } else { (-ng, -ns) };
                 let wi = Frame::new(ns).to_world(sample_cosine_hemisphere(u));
                 if wi.dot(ng) <= 0.0 || wo.dot(ns) <= 0.0 {
                     return None;
@@ -116,10 +112,7 @@ impl Material {
                 if wi.dot(ng) * wo.dot(ng) <= 0.0 {
                     return None;
                 }
-                Some(BsdfSample {
-                    wi,
-                    weight: *reflectance,
-                })
+                Some(BsdfSample { wi, weight: *reflectance })
             }
             Material::Dielectric { ior } => {
                 let entering = wo.dot(ng) >= 0.0;
@@ -131,25 +124,16 @@ impl Material {
                 }
                 let f = fresnel_dielectric(cos_o, eta);
                 if u_lobe < f {
-                    return Some(BsdfSample {
-                        wi: reflect(wo, n),
-                        weight: Rgb::ONE,
-                    });
+                    return Some(BsdfSample { wi: reflect(wo, n), weight: Rgb::ONE });
                 }
                 let wi = refract(wo, n, eta)?;
                 let scale = match mode {
                     Transport::Radiance => eta * eta,
                     Transport::Importance => 1.0,
                 };
-                Some(BsdfSample {
-                    wi,
-                    weight: Rgb::splat(scale),
-                })
+                Some(BsdfSample { wi, weight: Rgb::splat(scale) })
             }
-            Material::Interface => Some(BsdfSample {
-                wi: -wo,
-                weight: Rgb::ONE,
-            }),
+            Material::Interface => Some(BsdfSample { wi: -wo, weight: Rgb::ONE }),
         }
     }
 }
@@ -166,9 +150,8 @@ mod tests {
         let mut reflected = 0;
         for i in 0..n {
             let u = (i as f32 + 0.5) / n as f32;
-            let s = glass
-                .sample(wo, Vec3::Z, Vec3::Z, Vec2::ZERO, u, Transport::Importance)
-                .unwrap();
+            let s =
+                glass.sample(wo, Vec3::Z, Vec3::Z, Vec2::ZERO, u, Transport::Importance).unwrap();
             assert_eq!(s.weight, Rgb::ONE);
             if s.wi.z > 0.0 {
                 reflected += 1;

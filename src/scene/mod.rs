@@ -34,11 +34,7 @@ impl MediumInterface {
     /// The medium on the side that direction `w` points to, for geometric normal `ng`.
     #[inline]
     pub fn side(&self, w: Vec3, ng: Vec3) -> Option<u32> {
-        if w.dot(ng) >= 0.0 {
-            self.exterior
-        } else {
-            self.interior
-        }
+        if w.dot(ng) >= 0.0 { self.exterior } else { self.interior }
     }
 }
 
@@ -204,12 +200,7 @@ pub struct SceneBuilder {
 }
 
 fn invalid(key: String, message: impl Into<String>) -> Error {
-    Error::Invalid {
-        path: PathBuf::new(),
-        line: None,
-        key,
-        message: message.into(),
-    }
+    Error::Invalid { path: PathBuf::new(), line: None, key, message: message.into() }
 }
 
 fn check_color(key: String, c: Rgb, max: Option<f32>) -> Result<()> {
@@ -228,11 +219,7 @@ fn check_color(key: String, c: Rgb, max: Option<f32>) -> Result<()> {
 }
 
 fn check_point(key: String, p: Vec3) -> Result<()> {
-    if p.is_finite() {
-        Ok(())
-    } else {
-        Err(invalid(key, format!("must be finite, got {p}")))
-    }
+    if p.is_finite() { Ok(()) } else { Err(invalid(key, format!("must be finite, got {p}"))) }
 }
 
 impl SceneBuilder {
@@ -252,9 +239,7 @@ impl SceneBuilder {
 
     /// Sets the render settings (validated).
     pub fn settings(&mut self, settings: RenderSettings) -> Result<()> {
-        settings
-            .validate()
-            .map_err(|e| invalid(format!("render.{}", e.key), e.message))?;
+        settings.validate().map_err(|e| invalid(format!("render.{}", e.key), e.message))?;
         self.settings = settings;
         Ok(())
     }
@@ -311,10 +296,7 @@ impl SceneBuilder {
 
     /// Id of a medium by name.
     pub fn medium_index(&self, name: &str) -> Option<u32> {
-        self.media
-            .iter()
-            .position(|(n, _)| n == name)
-            .map(|i| i as u32)
+        self.media.iter().position(|(n, _)| n == name).map(|i| i as u32)
     }
 
     /// Sets the medium around the camera (default: vacuum).
@@ -333,10 +315,7 @@ impl SceneBuilder {
 
     /// Index of a material by name.
     pub fn material_index(&self, name: &str) -> Option<u32> {
-        self.materials
-            .iter()
-            .position(|(n, _)| n == name)
-            .map(|i| i as u32)
+        self.materials.iter().position(|(n, _)| n == name).map(|i| i as u32)
     }
 
     /// Adds a shape with material index `material` and optional emitted radiance; crossing it
@@ -387,10 +366,8 @@ impl SceneBuilder {
                 if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
                     return Err(invalid(format!("{label}.vertices[{i}]"), "must be finite"));
                 }
-                if let Some(t) = mesh
-                    .triangles
-                    .iter()
-                    .position(|t| t.iter().any(|&i| i as usize >= n))
+                if let Some(t) =
+                    mesh.triangles.iter().position(|t| t.iter().any(|&i| i as usize >= n))
                 {
                     return Err(invalid(
                         format!("{label}.triangles[{t}]"),
@@ -404,10 +381,7 @@ impl SceneBuilder {
                             format!("{} normals for {n} vertices", ns.len()),
                         ));
                     }
-                    if ns
-                        .iter()
-                        .any(|v| !v.is_finite() || v.length_squared() == 0.0)
-                    {
+                    if ns.iter().any(|v| !v.is_finite() || v.length_squared() == 0.0) {
                         return Err(invalid(
                             format!("{label}.normals"),
                             "must be finite and non-zero",
@@ -416,12 +390,7 @@ impl SceneBuilder {
                 }
             }
         }
-        let shape = Shape {
-            label,
-            material,
-            emission,
-            media,
-        };
+        let shape = Shape { label, material, emission, media };
         self.shapes.push((shape, geometry));
         Ok(())
     }
@@ -440,13 +409,7 @@ impl SceneBuilder {
                 check_point(key("position"), *position)?;
                 check_color(key("power"), *power, None)?;
             }
-            LightDesc::Spot {
-                position,
-                look_at,
-                power,
-                cone_angle,
-                falloff_start,
-            } => {
+            LightDesc::Spot { position, look_at, power, cone_angle, falloff_start } => {
                 check_point(key("position"), *position)?;
                 check_point(key("look_at"), *look_at)?;
                 if (*look_at - *position).length_squared() == 0.0 {
@@ -466,10 +429,7 @@ impl SceneBuilder {
                     ));
                 }
             }
-            LightDesc::Directional {
-                direction,
-                irradiance,
-            } => {
+            LightDesc::Directional { direction, irradiance } => {
                 check_point(key("direction"), *direction)?;
                 if direction.length_squared() == 0.0 {
                     return Err(invalid(key("direction"), "must not be zero"));
@@ -501,11 +461,7 @@ impl SceneBuilder {
                     }
                 }
                 Geometry::Sphere { center, radius } => {
-                    prims.push(Primitive::Sphere {
-                        center: *center,
-                        radius: *radius,
-                        tag,
-                    });
+                    prims.push(Primitive::Sphere { center: *center, radius: *radius, tag });
                 }
             }
             if let Some(radiance) = shape.emission.filter(|e| e.max_element() > 0.0) {
@@ -531,16 +487,11 @@ impl SceneBuilder {
                         }
                         Emitter::Triangles { triangles, cdf }
                     }
-                    Geometry::Sphere { center, radius } => Emitter::Sphere {
-                        center: *center,
-                        radius: *radius,
-                    },
+                    Geometry::Sphere { center, radius } => {
+                        Emitter::Sphere { center: *center, radius: *radius }
+                    }
                 };
-                lights.push(Light::Area {
-                    shape: tag,
-                    radiance,
-                    emitter,
-                });
+                lights.push(Light::Area { shape: tag, radiance, emitter });
                 light_media.push(shape.media.and_then(|m| m.exterior));
             }
         }
@@ -566,17 +517,10 @@ impl SceneBuilder {
         for (l, medium) in &self.lights {
             light_media.push(*medium);
             lights.push(match *l {
-                LightDesc::Point { position, power } => Light::Point {
-                    position,
-                    intensity: power / (4.0 * std::f32::consts::PI),
-                },
-                LightDesc::Spot {
-                    position,
-                    look_at,
-                    power,
-                    cone_angle,
-                    falloff_start,
-                } => {
+                LightDesc::Point { position, power } => {
+                    Light::Point { position, intensity: power / (4.0 * std::f32::consts::PI) }
+                }
+                LightDesc::Spot { position, look_at, power, cone_angle, falloff_start } => {
                     let cos_max = cone_angle.to_radians().cos();
                     let cos_start = falloff_start.to_radians().cos();
                     let omega = light::spot_solid_angle(cos_max, cos_start);
@@ -588,10 +532,7 @@ impl SceneBuilder {
                         cos_start,
                     }
                 }
-                LightDesc::Directional {
-                    direction,
-                    irradiance,
-                } => Light::Directional {
+                LightDesc::Directional { direction, irradiance } => Light::Directional {
                     direction: direction.normalize(),
                     irradiance,
                     center,
@@ -661,11 +602,7 @@ impl Scene {
             Some(i) => format!("medium `{}`", self.medium_names[i as usize]),
             None => "vacuum".to_string(),
         };
-        let n_area = self
-            .lights
-            .iter()
-            .filter(|l| matches!(l, Light::Area { .. }))
-            .count();
+        let n_area = self.lights.iter().filter(|l| matches!(l, Light::Area { .. })).count();
         let probe = |what: String, p: Vec3, declared: Option<u32>| -> Result<()> {
             for d in PROBES {
                 if let Some((seen, shape)) = self.medium_seen(p, d) {

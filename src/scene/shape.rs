@@ -57,9 +57,7 @@ impl Mesh {
 
     /// Vertices of every triangle.
     pub fn triangle_vertices(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
-        self.triangles
-            .iter()
-            .map(|t| t.map(|i| self.positions[i as usize]))
+        self.triangles.iter().map(|t| t.map(|i| self.positions[i as usize]))
     }
 }
 
@@ -193,22 +191,14 @@ mod tests {
     fn closed_shapes_face_outward_even_when_mirrored() {
         assert!(outward(&cuboid(Vec3::new(1.0, 2.0, 3.0)), Vec3::ZERO));
         assert!(outward(&icosphere(Vec3::ONE, 2.0, 2), Vec3::ONE));
-        let m = affine(
-            Vec3::new(-1.0, 1.0, 1.0),
-            Vec3::new(10.0, 20.0, 30.0),
-            Vec3::X,
-        );
+        let m = affine(Vec3::new(-1.0, 1.0, 1.0), Vec3::new(10.0, 20.0, 30.0), Vec3::X);
         assert!(outward(&cuboid(Vec3::ONE).transformed(&m), Vec3::X));
     }
 
     #[test]
     fn rectangle_faces_plus_z_and_rotates_to_floor() {
         let m = affine(Vec3::ONE, Vec3::new(-90.0, 0.0, 0.0), Vec3::ZERO);
-        let [a, b, c] = rectangle(2.0, 2.0)
-            .transformed(&m)
-            .triangle_vertices()
-            .next()
-            .unwrap();
+        let [a, b, c] = rectangle(2.0, 2.0).transformed(&m).triangle_vertices().next().unwrap();
         let n = (b - a).cross(c - a).normalize();
         assert!((n - Vec3::Y).length() < 1e-5, "{n}");
     }

@@ -24,39 +24,16 @@ use std::sync::atomic::AtomicBool;
 
 fn sphere_scene(albedo: f32, power: f32) -> haze::Scene {
     let camera = Camera::new(
-        Projection::Perspective {
-            tan_half_fov: 0.6,
-            lens_radius: 0.0,
-            focus_distance: 1.0,
-        },
+        Projection::Perspective { tan_half_fov: 0.6, lens_radius: 0.0, focus_distance: 1.0 },
         Vec3::new(0.1, -0.2, 0.05),
         Vec3::new(1.0, 0.3, 0.2),
         Vec3::Y,
         [16, 12],
     );
     let mut b = SceneBuilder::new(camera);
-    let m = b
-        .material(
-            "wall",
-            Material::Diffuse {
-                albedo: Vec3::splat(albedo),
-            },
-        )
-        .unwrap();
-    b.shape(
-        Geometry::Sphere {
-            center: Vec3::ZERO,
-            radius: 1.0,
-        },
-        m,
-        None,
-    )
-    .unwrap();
-    b.light(LightDesc::Point {
-        position: Vec3::ZERO,
-        power: Vec3::splat(power),
-    })
-    .unwrap();
+    let m = b.material("wall", Material::Diffuse { albedo: Vec3::splat(albedo) }).unwrap();
+    b.shape(Geometry::Sphere { center: Vec3::ZERO, radius: 1.0 }, m, None).unwrap();
+    b.light(LightDesc::Point { position: Vec3::ZERO, power: Vec3::splat(power) }).unwrap();
     b.build().unwrap()
 }
 
@@ -85,11 +62,6 @@ fn closed_diffuse_sphere_with_central_point_light() {
                 image.mean()
             })
             .collect();
-        assert_agrees(
-            &format!("sphere ρ = {albedo}, {kernel:?}"),
-            &estimates,
-            reference,
-            0.0,
-        );
+        assert_agrees(&format!("sphere ρ = {albedo}, {kernel:?}"), &estimates, reference, 0.0);
     }
 }

@@ -44,10 +44,7 @@ fn expect_error(text: &str, needles: &[&str]) -> String {
     for n in needles {
         assert!(msg.contains(n), "error `{msg}` does not mention `{n}`");
     }
-    assert!(
-        msg.starts_with("bad.toml"),
-        "error `{msg}` does not name the file"
-    );
+    assert!(msg.starts_with("bad.toml"), "error `{msg}` does not name the file");
     msg
 }
 
@@ -95,14 +92,9 @@ fn missing_obj_file_names_the_file() {
     let text = format!(
         "{CAMERA}{BODY}\n[[shapes]]\ntype = \"obj\"\nfile = \"nowhere.obj\"\nmaterial = \"white\"\n"
     );
-    let err = Scene::from_toml(&text, Path::new("bad.toml"), &dir)
-        .err()
-        .expect("accepted");
+    let err = Scene::from_toml(&text, Path::new("bad.toml"), &dir).err().expect("accepted");
     let msg = err.to_string();
-    assert!(
-        msg.contains("nowhere.obj") && msg.contains("no such file"),
-        "{msg}"
-    );
+    assert!(msg.contains("nowhere.obj") && msg.contains("no such file"), "{msg}");
 }
 
 #[test]
@@ -112,9 +104,7 @@ fn corrupt_obj_file_is_an_error_not_a_panic() {
     let text = format!(
         "{CAMERA}{BODY}\n[[shapes]]\ntype = \"obj\"\nfile = \"broken.obj\"\nmaterial = \"white\"\n"
     );
-    let err = Scene::from_toml(&text, Path::new("bad.toml"), &dir)
-        .err()
-        .expect("accepted");
+    let err = Scene::from_toml(&text, Path::new("bad.toml"), &dir).err().expect("accepted");
     assert!(err.to_string().contains("broken.obj"), "{err}");
 }
 
@@ -159,10 +149,7 @@ fn impossible_camera_names_the_key() {
 fn missing_sections_and_bad_syntax_are_parse_errors() {
     expect_error(BODY, &["camera"]);
     expect_error(&format!("{CAMERA}{BODY}[[shapes]\n"), &[":"]);
-    expect_error(
-        &format!("{CAMERA}{BODY}").replace("\"rectangle\"", "\"torus\""),
-        &["torus"],
-    );
+    expect_error(&format!("{CAMERA}{BODY}").replace("\"rectangle\"", "\"torus\""), &["torus"]);
 }
 
 #[test]
@@ -201,15 +188,9 @@ fn bad_media_name_the_key_and_line() {
 #[test]
 fn undefined_or_contradictory_media_are_errors() {
     let base = format!("{CAMERA}{BODY}{FOG}");
-    let text = base.replace(
-        "resolution = [32, 32]",
-        "resolution = [32, 32]\nmedium = \"smog\"",
-    );
+    let text = base.replace("resolution = [32, 32]", "resolution = [32, 32]\nmedium = \"smog\"");
     expect_error(&text, &["camera.medium", "undefined medium `smog`"]);
-    let text = base.replace(
-        "material = \"white\"",
-        "material = \"white\"\ninterior = \"smog\"",
-    );
+    let text = base.replace("material = \"white\"", "material = \"white\"\ninterior = \"smog\"");
     expect_error(&text, &["shapes[0].interior", "smog"]);
     let text = base.replace("power = 20", "power = 20\nmedium = \"smog\"");
     expect_error(&text, &["lights[0].medium", "smog"]);
@@ -220,4 +201,18 @@ fn undefined_or_contradictory_media_are_errors() {
     )
     .replace("resolution = [32, 32]", "resolution = [32, 32]\nmedium = \"fog\"");
     expect_error(&text, &["camera.medium", "shapes[1]", "vacuum"]);
+}
+
+#[test]
+fn the_documented_complete_example_loads() {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scene-format.md"))
+        .unwrap();
+    let start = doc.find("```toml\n").expect("a toml block") + "```toml\n".len();
+    let end = start + doc[start..].find("```").unwrap();
+    let scene =
+        Scene::from_toml(&doc[start..end], Path::new("docs/scene-format.md"), Path::new("."))
+            .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.media.len(), 1);
+    assert_eq!(scene.shapes.len(), 6);
+    assert_eq!(scene.lights.len(), 2);
 }

@@ -4,14 +4,8 @@ use crate::common::{scene_path, temp_dir};
 use std::process::Command;
 
 fn haze(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_haze"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let out = Command::new(env!("CARGO_BIN_EXE_haze")).args(args).output().unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
 #[test]
@@ -58,20 +52,11 @@ fn bad_input_fails_with_a_one_line_reason() {
 
 #[test]
 fn help_explains_the_options() {
-    let out = Command::new(env!("CARGO_BIN_EXE_haze"))
-        .args(["render", "--help"])
-        .output()
-        .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_haze")).args(["render", "--help"]).output().unwrap();
     let help = String::from_utf8_lossy(&out.stdout);
-    for flag in [
-        "--iterations",
-        "--time",
-        "--photons",
-        "--alpha",
-        "--radius",
-        "--seed",
-        "--threads",
-    ] {
+    for flag in
+        ["--iterations", "--time", "--photons", "--alpha", "--radius", "--seed", "--threads"]
+    {
         assert!(help.contains(flag), "--help lacks {flag}");
     }
 }

@@ -27,10 +27,7 @@ pub fn chi_square_p(observed: &[u64], expected_prob: &[f64]) -> f64 {
             stat += (pooled_o - pooled_e).powi(2) / pooled_e;
             dof += 1;
         } else {
-            assert!(
-                pooled_o <= 5.0 + 10.0 * pooled_e,
-                "{pooled_o} samples in near-empty bins"
-            );
+            assert!(pooled_o <= 5.0 + 10.0 * pooled_e, "{pooled_o} samples in near-empty bins");
         }
     }
     assert!(dof >= 2, "too few usable bins");
@@ -47,9 +44,7 @@ pub fn mean_and_se(xs: &[f64]) -> (f64, f64) {
 
 /// Two-sided Student-t critical value for `samples` independent samples at [`SIGNIFICANCE`].
 pub fn t_critical(samples: usize) -> f64 {
-    StudentsT::new(0.0, 1.0, (samples - 1) as f64)
-        .unwrap()
-        .inverse_cdf(1.0 - SIGNIFICANCE / 2.0)
+    StudentsT::new(0.0, 1.0, (samples - 1) as f64).unwrap().inverse_cdf(1.0 - SIGNIFICANCE / 2.0)
 }
 
 /// Asserts that the mean of independent estimates `xs` agrees with `reference` by a two-sided
@@ -67,9 +62,7 @@ pub fn assert_agrees(what: &str, xs: &[f64], reference: f64, bias: f64) {
 
 /// Path of a bundled scene.
 pub fn scene_path(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
 }
 
 /// A fresh, empty temporary directory for one test.

@@ -10,10 +10,7 @@ fn render_with(scene: &Scene, threads: usize, seed: u64) -> Image {
     settings.iterations = Some(3);
     settings.photons = 30_000;
     settings.seed = seed;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| haze::render(scene, &settings, &mut Silent, &AtomicBool::new(false)).unwrap())
 }
 
@@ -24,16 +21,9 @@ fn image_is_bit_identical_across_thread_counts() {
         let one = render_with(&scene, 1, 5);
         let two = render_with(&scene, 2, 5);
         assert!(one.pixels == two.pixels, "{name}: 1 and 2 threads differ");
-        assert!(
-            one.pixels
-                .iter()
-                .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0))
-        );
+        assert!(one.pixels.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
         assert_eq!(one.info.nonfinite_samples, 0);
         let other_seed = render_with(&scene, 2, 6);
-        assert!(
-            one.pixels != other_seed.pixels,
-            "{name}: the seed changes nothing"
-        );
+        assert!(one.pixels != other_seed.pixels, "{name}: the seed changes nothing");
     }
 }

@@ -16,10 +16,7 @@ fn kernels_integrate_to_one() {
             three += k.eval((u * u) as f32, 3) as f64 * 4.0 * PI * u * u * du;
         }
         assert!((two - 1.0).abs() < 1e-5, "{k:?} 2-D integrates to {two}");
-        assert!(
-            (three - 1.0).abs() < 1e-5,
-            "{k:?} 3-D integrates to {three}"
-        );
+        assert!((three - 1.0).abs() < 1e-5, "{k:?} 3-D integrates to {three}");
         assert_eq!(k.eval(1.0, 2), 0.0);
         assert_eq!(k.eval(1.5, 3), 0.0);
         assert_eq!(k.name().parse::<Kernel>(), Ok(k));

@@ -21,11 +21,7 @@ fn render(scene: &Scene, settings: &RenderSettings) -> Image {
 }
 
 fn homogeneous(sigma_a: Vec3, sigma_s: Vec3, g: f32) -> Medium {
-    Medium::Homogeneous(Homogeneous {
-        sigma_a,
-        sigma_s,
-        phase: HenyeyGreenstein { g },
-    })
+    Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase: HenyeyGreenstein { g } })
 }
 
 /// Half-angle of the furnace camera's view cone (diagonal), for the bias bound.
@@ -36,11 +32,7 @@ const FURNACE_FOV_DEG: f32 = 20.0;
 fn furnace(le: Vec3, medium: Medium) -> Scene {
     let tan = (FURNACE_FOV_DEG.to_radians() / 2.0).tan();
     let camera = Camera::new(
-        Projection::Perspective {
-            tan_half_fov: tan,
-            lens_radius: 0.0,
-            focus_distance: 1.0,
-        },
+        Projection::Perspective { tan_half_fov: tan, lens_radius: 0.0, focus_distance: 1.0 },
         Vec3::ZERO,
         -Vec3::Z,
         Vec3::Y,
@@ -49,9 +41,7 @@ fn furnace(le: Vec3, medium: Medium) -> Scene {
     let mut b = SceneBuilder::new(camera);
     let fog = b.medium("fog", medium).unwrap();
     b.camera_medium(Some(fog)).unwrap();
-    let black = b
-        .material("black", Material::Diffuse { albedo: Vec3::ZERO })
-        .unwrap();
+    let black = b.material("black", Material::Diffuse { albedo: Vec3::ZERO }).unwrap();
     // Rotations taking the rectangle's +z normal to each inward direction.
     let walls = [
         (Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0)), // back wall z = -1, normal +z
@@ -63,12 +53,8 @@ fn furnace(le: Vec3, medium: Medium) -> Scene {
     ];
     for (rotate, at) in walls {
         let mesh = shape::rectangle(2.0, 2.0).transformed(&shape::affine(Vec3::ONE, rotate, at));
-        let inside = MediumInterface {
-            interior: None,
-            exterior: Some(fog),
-        };
-        b.shape_with_media(Geometry::Mesh(mesh), black, Some(le), Some(inside))
-            .unwrap();
+        let inside = MediumInterface { interior: None, exterior: Some(fog) };
+        b.shape_with_media(Geometry::Mesh(mesh), black, Some(le), Some(inside)).unwrap();
     }
     b.build().unwrap()
 }
@@ -107,9 +93,7 @@ fn white_furnace_with_media_for_both_estimators() {
         (Vec3::splat(5.0), -0.5, 0.015),
         (Vec3::new(0.5, 1.5, 3.0), 0.3, 0.02), // chromatic extinction
     ];
-    let cos_max = ((FURNACE_FOV_DEG.to_radians() / 2.0).tan() * 2f32.sqrt())
-        .atan()
-        .cos() as f64;
+    let cos_max = ((FURNACE_FOV_DEG.to_radians() / 2.0).tan() * 2f32.sqrt()).atan().cos() as f64;
     for (sigma_s, g, r) in cases {
         let scene = furnace(le, homogeneous(Vec3::ZERO, sigma_s, g));
         for estimate in [VolumeEstimate::Beam, VolumeEstimate::Point] {
@@ -157,20 +141,12 @@ fn beer_lambert_slab_with_chromatic_absorption() {
         [6, 6],
     );
     let mut b = SceneBuilder::new(camera);
-    let slab = b
-        .medium("slab", homogeneous(sigma_a, Vec3::ZERO, 0.0))
-        .unwrap();
+    let slab = b.medium("slab", homogeneous(sigma_a, Vec3::ZERO, 0.0)).unwrap();
     let boundary = b.material("boundary", Material::Interface).unwrap();
-    let black = b
-        .material("black", Material::Diffuse { albedo: Vec3::ZERO })
-        .unwrap();
+    let black = b.material("black", Material::Diffuse { albedo: Vec3::ZERO }).unwrap();
     let cube = shape::cuboid(Vec3::new(4.0, 4.0, thickness));
-    let inside = MediumInterface {
-        interior: Some(slab),
-        exterior: None,
-    };
-    b.shape_with_media(Geometry::Mesh(cube), boundary, None, Some(inside))
-        .unwrap();
+    let inside = MediumInterface { interior: Some(slab), exterior: None };
+    b.shape_with_media(Geometry::Mesh(cube), boundary, None, Some(inside)).unwrap();
     let emitter = shape::rectangle(4.0, 4.0).transformed(&shape::affine(
         Vec3::ONE,
         Vec3::ZERO,
@@ -186,10 +162,7 @@ fn beer_lambert_slab_with_chromatic_absorption() {
         for c in 0..3 {
             let tol = (sigma_a[c] * eps).exp() - 1.0 + 1e-6; // + f32 rounding of exp
             let rel = p[c] / expected[c] - 1.0;
-            assert!(
-                rel >= -1e-6 && rel <= tol,
-                "beam: {p:?} vs {expected} (tolerance {tol})"
-            );
+            assert!(rel >= -1e-6 && rel <= tol, "beam: {p:?} vs {expected} (tolerance {tol})");
         }
     }
     let per_seed: Vec<Vec3> = (0..10)
@@ -216,25 +189,16 @@ fn beer_lambert_slab_with_chromatic_absorption() {
 #[test]
 fn beam_and_point_estimates_agree() {
     let camera = Camera::new(
-        Projection::Perspective {
-            tan_half_fov: 0.4,
-            lens_radius: 0.0,
-            focus_distance: 1.0,
-        },
+        Projection::Perspective { tan_half_fov: 0.4, lens_radius: 0.0, focus_distance: 1.0 },
         Vec3::ZERO,
         -Vec3::Z,
         Vec3::Y,
         [12, 12],
     );
     let mut b = SceneBuilder::new(camera);
-    let fog = b
-        .medium("fog", homogeneous(Vec3::splat(0.2), Vec3::splat(0.8), 0.4))
-        .unwrap();
+    let fog = b.medium("fog", homogeneous(Vec3::splat(0.2), Vec3::splat(0.8), 0.4)).unwrap();
     b.camera_medium(Some(fog)).unwrap();
-    let light = LightDesc::Point {
-        position: Vec3::new(0.0, 0.0, 1.0),
-        power: Vec3::splat(50.0),
-    };
+    let light = LightDesc::Point { position: Vec3::new(0.0, 0.0, 1.0), power: Vec3::splat(50.0) };
     b.light_in(light, Some(fog)).unwrap();
     let scene = b.build().unwrap();
     let r = 0.05;

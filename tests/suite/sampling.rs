@@ -20,10 +20,7 @@ const BINS: usize = 10;
 fn grid_counts(samples: impl Iterator<Item = (f32, f32)>) -> Vec<u64> {
     let mut counts = vec![0u64; BINS * BINS];
     for (a, b) in samples {
-        assert!(
-            (0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b),
-            "sample out of range"
-        );
+        assert!((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b), "sample out of range");
         let i = ((a * BINS as f32) as usize).min(BINS - 1);
         let j = ((b * BINS as f32) as usize).min(BINS - 1);
         counts[i * BINS + j] += 1;
@@ -40,13 +37,7 @@ fn phi01(v: Vec3) -> f32 {
 }
 
 fn camera() -> Camera {
-    Camera::new(
-        Projection::Orthographic { height: 1.0 },
-        Vec3::Z,
-        Vec3::ZERO,
-        Vec3::Y,
-        [4, 4],
-    )
+    Camera::new(Projection::Orthographic { height: 1.0 }, Vec3::Z, Vec3::ZERO, Vec3::Y, [4, 4])
 }
 
 #[test]
@@ -63,10 +54,7 @@ fn cosine_hemisphere_matches_cos_over_pi() {
 
 #[test]
 fn point_light_emits_uniformly_with_its_power() {
-    let light = Light::Point {
-        position: Vec3::ONE,
-        intensity: Vec3::splat(2.0),
-    };
+    let light = Light::Point { position: Vec3::ONE, intensity: Vec3::splat(2.0) };
     let mut s = Sampler::new(12, Purpose::Other, 0, 0);
     let counts = grid_counts((0..N).map(|_| {
         let e = light.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
@@ -103,10 +91,8 @@ fn spot_light_fills_its_cone_and_carries_its_power() {
     let p = chi_square_p(&counts, &uniform_p());
     assert!(p > SIGNIFICANCE, "direction p = {p}");
     // E[β] = Φ: the photons carry the spot's power on average (batch means for the t-test).
-    let batches: Vec<f64> = betas
-        .chunks(N / 20)
-        .map(|c| c.iter().sum::<f64>() / c.len() as f64)
-        .collect();
+    let batches: Vec<f64> =
+        betas.chunks(N / 20).map(|c| c.iter().sum::<f64>() / c.len() as f64).collect();
     assert_agrees("spot power", &batches, power as f64, 0.0);
 }
 
@@ -115,24 +101,10 @@ fn area_light_emits_uniformly_by_area_with_cosine_directions() {
     // A 2 × 1 rectangle in the xy-plane facing +z, made of two triangles of equal area, plus a
     // small third triangle: positions must be uniform by area over all of them.
     let mut b = SceneBuilder::new(camera());
-    let m = b
-        .material(
-            "m",
-            Material::Diffuse {
-                albedo: Vec3::splat(0.5),
-            },
-        )
-        .unwrap();
-    b.shape(
-        Geometry::Mesh(shape::rectangle(2.0, 1.0)),
-        m,
-        Some(Vec3::ONE),
-    )
-    .unwrap();
+    let m = b.material("m", Material::Diffuse { albedo: Vec3::splat(0.5) }).unwrap();
+    b.shape(Geometry::Mesh(shape::rectangle(2.0, 1.0)), m, Some(Vec3::ONE)).unwrap();
     let scene = b.build().unwrap();
-    let Light::Area { emitter, .. } = &scene.lights[0] else {
-        panic!("no area light")
-    };
+    let Light::Area { emitter, .. } = &scene.lights[0] else { panic!("no area light") };
     assert!(matches!(emitter, Emitter::Triangles { .. }));
     assert!((emitter.area() - 2.0).abs() < 1e-6);
     let light = &scene.lights[0];
@@ -158,11 +130,7 @@ fn lights_are_chosen_in_proportion_to_power() {
     let powers = [1.0f32, 3.0, 6.0, 0.5];
     for (i, &w) in powers.iter().enumerate() {
         let position = Vec3::new(i as f32, 0.0, 0.0);
-        b.light(LightDesc::Point {
-            position,
-            power: Vec3::splat(w),
-        })
-        .unwrap();
+        b.light(LightDesc::Point { position, power: Vec3::splat(w) }).unwrap();
     }
     let scene = b.build().unwrap();
     let sampler = LightSampler::new(&scene);
@@ -186,10 +154,7 @@ fn lights_are_chosen_in_proportion_to_power() {
 fn henyey_greenstein_sampling_matches_its_density_and_mean_cosine() {
     use haze::medium::phase::HenyeyGreenstein;
     const COS_BINS: usize = 20;
-    for (k, g) in [-0.95f32, -0.4, 0.0, 0.3, 0.8, 0.95]
-        .into_iter()
-        .enumerate()
-    {
+    for (k, g) in [-0.95f32, -0.4, 0.0, 0.3, 0.8, 0.95].into_iter().enumerate() {
         let hg = HenyeyGreenstein { g };
         let d_in = Vec3::new(0.2, -0.5, 0.84).normalize();
         let frame = Frame::new(d_in);
@@ -213,10 +178,7 @@ fn henyey_greenstein_sampling_matches_its_density_and_mean_cosine() {
             expected.extend(std::iter::repeat_n(mass / BINS as f64, BINS));
         }
         let total: f64 = expected.iter().sum();
-        assert!(
-            (total - 1.0).abs() < 1e-3,
-            "g = {g}: p integrates to {total}"
-        );
+        assert!((total - 1.0).abs() < 1e-3, "g = {g}: p integrates to {total}");
         let mut s = Sampler::new(20 + k as u64, Purpose::Other, 0, 0);
         let mut counts = vec![0u64; COS_BINS * BINS];
         let mut cosines = Vec::with_capacity(N);
@@ -232,10 +194,8 @@ fn henyey_greenstein_sampling_matches_its_density_and_mean_cosine() {
         }
         let p = chi_square_p(&counts, &expected);
         assert!(p > SIGNIFICANCE / 6.0, "g = {g}: chi-square p = {p}");
-        let batches: Vec<f64> = cosines
-            .chunks(N / 20)
-            .map(|c| c.iter().sum::<f64>() / c.len() as f64)
-            .collect();
+        let batches: Vec<f64> =
+            cosines.chunks(N / 20).map(|c| c.iter().sum::<f64>() / c.len() as f64).collect();
         assert_agrees(&format!("mean cosine, g = {g}"), &batches, g as f64, 0.0);
     }
 }

@@ -16,11 +16,7 @@ fn bundled_scenes_render_finite_images() {
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .collect();
     names.sort();
-    assert!(
-        names.len() >= 5,
-        "expected the bundled scenes in {}",
-        dir.display()
-    );
+    assert!(names.len() >= 5, "expected the bundled scenes in {}", dir.display());
     for path in names {
         let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         let [w, h] = scene.camera.resolution;
@@ -32,12 +28,7 @@ fn bundled_scenes_render_finite_images() {
             s.photons = 20_000;
             s.volume_estimate = estimate;
             let image = haze::render(&scene, &s, &mut Silent, &AtomicBool::new(false)).unwrap();
-            let bad = image
-                .pixels
-                .iter()
-                .flatten()
-                .filter(|c| !c.is_finite() || **c < 0.0)
-                .count();
+            let bad = image.pixels.iter().flatten().filter(|c| !c.is_finite() || **c < 0.0).count();
             assert_eq!(bad, 0, "{}: {bad} bad pixel values", path.display());
             assert_eq!(image.info.nonfinite_samples, 0, "{}", path.display());
             assert!(image.mean() > 0.0, "{}: black image", path.display());
