@@ -20,7 +20,8 @@ use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
 use glam::Vec3;
 
-/// The beam radiance estimate along o + tω, 0 < t < `t_max`, in medium `id`.
+/// The beam radiance estimate along o + tω, 0 < t < `t_max`, in medium `id`. The photons in
+/// `map` carry β·σ_s(x_p) (see `BeamMap::build`).
 pub fn beam_radiance(
     map: &BeamMap,
     medium: &Medium,
@@ -37,7 +38,8 @@ pub fn beam_radiance(
     map.query(o, w, t_max, |ph, t, d2| {
         if ph.medium == id {
             let k = g.kernel.eval(d2 * inv_r2, 2);
-            sum += ph.beta * tr.at(t) * medium.sigma_s(ph.p) * (phase.eval(ph.d, -w) * k);
+            // The beam map stores β·σ_s(x_p) as the photon's power.
+            sum += ph.beta * tr.at(t) * (phase.eval(ph.d, -w) * k);
         }
     });
     sum * (inv_r2 * g.inv_paths)

@@ -75,7 +75,9 @@ pub fn render(
         }
         surface_map.build(&photons.surface, r as f32);
         match settings.volume_estimate {
-            VolumeEstimate::Beam => volume_beams.build(&photons.volume, r_vol as f32),
+            VolumeEstimate::Beam => volume_beams.build(&photons.volume, r_vol as f32, |p| {
+                p.beta * scene.media[p.medium as usize].sigma_s(p.p)
+            }),
             VolumeEstimate::Point => volume_points.build(&photons.volume, r_vol as f32),
         }
         let t1 = Instant::now();

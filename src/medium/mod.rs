@@ -45,6 +45,11 @@ pub enum SegmentTransmittance {
         /// Extinction.
         sigma_t: Rgb,
     },
+    /// exp(−σ_t t) with the same σ_t in every channel: one exponential instead of three.
+    Grey {
+        /// Extinction.
+        sigma_t: f32,
+    },
 }
 
 impl SegmentTransmittance {
@@ -53,6 +58,7 @@ impl SegmentTransmittance {
     pub fn at(&self, t: f32) -> Rgb {
         match self {
             SegmentTransmittance::Exponential { sigma_t } => (-*sigma_t * t).exp(),
+            SegmentTransmittance::Grey { sigma_t } => Rgb::splat((-sigma_t * t).exp()),
         }
     }
 }
@@ -79,7 +85,14 @@ impl Medium {
     #[inline]
     pub fn segment(&self, _o: Vec3, _d: Vec3, _t_max: f32) -> SegmentTransmittance {
         match self {
-            Medium::Homogeneous(h) => SegmentTransmittance::Exponential { sigma_t: h.sigma_t() },
+            Medium::Homogeneous(h) => {
+                let sigma_t = h.sigma_t();
+                if sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z {
+                    SegmentTransmittance::Grey { sigma_t: sigma_t.x }
+                } else {
+                    SegmentTransmittance::Exponential { sigma_t }
+                }
+            }
         }
     }
 

@@ -30,6 +30,9 @@ impl HenyeyGreenstein {
     #[inline]
     pub fn eval_cos(&self, cos_theta: f32) -> f32 {
         let g = self.g;
+        if g == 0.0 {
+            return 1.0 / (4.0 * PI);
+        }
         let denom = (1.0 + g * g - 2.0 * g * cos_theta).max(1e-12);
         (1.0 - g * g) / (4.0 * PI * denom * denom.sqrt())
     }

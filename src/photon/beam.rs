@@ -18,6 +18,7 @@
 
 use super::VolumePhoton;
 use glam::{IVec3, Vec3};
+use rayon::prelude::*;
 
 /// Mean photons per cell the cell size aims for when the radius is small.
 const PHOTONS_PER_CELL: f32 = 4.0;
@@ -71,10 +72,17 @@ impl BeamMap {
         ((p - self.lo) * self.inv_cell).floor().as_ivec3().clamp(IVec3::ZERO, self.dims - 1)
     }
 
-    /// Rebuilds the grid over `photons` for queries of radius `radius`.
-    pub fn build(&mut self, photons: &[VolumePhoton], radius: f32) {
+    /// Rebuilds the grid over `photons` for queries of radius `radius`, storing each photon with
+    /// its power replaced by `weight(photon)` (the beam estimate stores β·σ_s(x_p) here, so that
+    /// σ_s is looked up once per photon rather than once per ray that finds it).
+    pub fn build(
+        &mut self,
+        photons: &[VolumePhoton],
+        radius: f32,
+        weight: impl Fn(&VolumePhoton) -> crate::math::Rgb,
+    ) {
         self.photons.clear();
-        self.photons.extend_from_slice(photons);
+        self.photons.extend(photons.iter().map(|p| VolumePhoton { beta: weight(p), ..*p }));
         self.entry_pos.clear();
         self.entry_idx.clear();
         self.radius = radius;
@@ -111,6 +119,19 @@ impl BeamMap {
         let grow = radius * 1.001 + 1e-6 * extent.max_element();
         let mut pairs = std::mem::take(&mut self.scratch);
         pairs.clear();
+        // Keep the photons in the order of the cells their centres lie in, so that the photons a
+        // cell refers to sit together in memory. (cell, index) keys are unique: the order does
+        // not depend on the thread count.
+        let mut order: Vec<(u32, u32)> = self
+            .photons
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (self.index(self.cell_of(p.p)) as u32, i as u32))
+            .collect();
+        order.par_sort_unstable();
+        let sorted: Vec<VolumePhoton> = order.iter().map(|&(_, i)| self.photons[i as usize]).collect();
+        self.photons = sorted;
+        let photons = &self.photons;
         for (i, ph) in photons.iter().enumerate() {
             let a = self.cell_of(ph.p - Vec3::splat(grow));
             let b = self.cell_of(ph.p + Vec3::splat(grow));
@@ -230,7 +251,7 @@ mod tests {
             .collect();
         let mut map = BeamMap::new();
         for r in [0.003f32, 0.01, 0.05, 0.2] {
-            map.build(&photons, r);
+            map.build(&photons, r, |p| p.beta);
             for q in 0..60 {
                 let o = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 3.0 - 1.5;
                 let d = match q {
