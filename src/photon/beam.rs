@@ -129,7 +129,8 @@ impl BeamMap {
             .map(|(i, p)| (self.index(self.cell_of(p.p)) as u32, i as u32))
             .collect();
         order.par_sort_unstable();
-        let sorted: Vec<VolumePhoton> = order.iter().map(|&(_, i)| self.photons[i as usize]).collect();
+        let sorted: Vec<VolumePhoton> =
+            order.iter().map(|&(_, i)| self.photons[i as usize]).collect();
         self.photons = sorted;
         let photons = &self.photons;
         for (i, ph) in photons.iter().enumerate() {
