@@ -45,6 +45,14 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A volume (OpenVDB) file could not be used.
+    #[error("{path}: {message}")]
+    Volume {
+        /// The volume file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// A render or output setting is impossible.
     #[error("{0}")]
     Settings(String),

@@ -10,6 +10,7 @@
 //! g = 0.3                       # Henyey–Greenstein mean cosine; 0 = isotropic (default)
 //! ```
 
+pub mod grid;
 pub mod homogeneous;
 pub mod phase;
 

@@ -11,3 +11,4 @@ mod output;
 mod sampling;
 mod scenes;
 mod schedule;
+mod vdb;
