@@ -14,14 +14,14 @@
 
 use super::surface::Gather;
 use crate::math::Rgb;
-use crate::medium::Medium;
+use crate::medium::{Medium, SegmentTransmittance};
 use crate::photon::VolumePhoton;
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
 use glam::Vec3;
 
-/// The beam radiance estimate along o + tω, 0 < t < `t_max`, in medium `id`. The photons in
-/// `map` carry β·σ_s(x_p) (see `BeamMap::build`).
+/// The beam radiance estimate along o + tω, 0 < t < `t_max`, in medium `id`, with the segment's
+/// transmittance `tr`. The photons in `map` carry β·σ_s(x_p) (see `BeamMap::build`).
 pub fn beam_radiance(
     map: &BeamMap,
     medium: &Medium,
@@ -29,9 +29,9 @@ pub fn beam_radiance(
     o: Vec3,
     w: Vec3,
     t_max: f32,
+    tr: &SegmentTransmittance,
     g: &Gather,
 ) -> Rgb {
-    let tr = medium.segment(o, w, t_max);
     let phase = medium.phase();
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;

@@ -64,11 +64,15 @@ fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32)
             let t_max = hit.map_or(f32::INFINITY, |h| h.t);
             match pass.estimate {
                 VolumeEstimate::Beam => {
-                    l += beta * beam_radiance(maps.volume_beams, m, id, o, d, t_max, &pass.volume);
-                    beta *= m.transmittance(o, d, t_max);
+                    // One transmittance estimate per segment, shared by every photon on it and by
+                    // the path's continuation.
+                    let tr = m.segment(o, d, t_max, &mut s);
+                    let volume = &pass.volume;
+                    l += beta * beam_radiance(maps.volume_beams, m, id, o, d, t_max, &tr, volume);
+                    beta *= tr.at(t_max);
                 }
                 VolumeEstimate::Point => {
-                    let flight = m.sample_free_flight(o, d, t_max, [s.next_f32(), s.next_f32()]);
+                    let flight = m.sample_free_flight(o, d, t_max, &mut s);
                     beta *= flight.weight;
                     if flight.scattered {
                         let x = o + d * flight.t;

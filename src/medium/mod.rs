@@ -13,11 +13,14 @@
 pub mod grid;
 pub mod homogeneous;
 pub mod phase;
+pub mod vdb;
 
 use crate::math::Rgb;
 use glam::Vec3;
+use crate::rng::Sampler;
 use homogeneous::Homogeneous;
 use phase::HenyeyGreenstein;
+use vdb::VdbMedium;
 
 /// The outcome of free-flight sampling along a ray segment.
 #[derive(Clone, Copy, Debug)]
@@ -31,16 +34,20 @@ pub struct FreeFlight {
 }
 
 /// A participating medium.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum Medium {
     /// Constant coefficients.
     Homogeneous(Homogeneous),
+    /// Coefficients proportional to an OpenVDB density grid.
+    Vdb(Box<VdbMedium>),
 }
 
 /// Transmittance along one ray segment, T(0, t), for many lookups (the beam estimate asks it for
 /// every photon on the segment).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub enum SegmentTransmittance {
+    /// One ratio-tracking estimate kept as a step function (heterogeneous media).
+    Steps(vdb::TransmittanceSteps),
     /// exp(−σ_t t).
     Exponential {
         /// Extinction.
@@ -58,33 +65,41 @@ impl SegmentTransmittance {
     #[inline]
     pub fn at(&self, t: f32) -> Rgb {
         match self {
-            SegmentTransmittance::Exponential { sigma_t } => (-*sigma_t * t).exp(),
-            SegmentTransmittance::Grey { sigma_t } => Rgb::splat((-sigma_t * t).exp()),
+            // A zero coefficient transmits fully even over an infinite distance (not 0·∞ = NaN).
+            SegmentTransmittance::Exponential { sigma_t } => {
+                Rgb::select(sigma_t.cmpgt(Rgb::ZERO), (-*sigma_t * t).exp(), Rgb::ONE)
+            }
+            SegmentTransmittance::Grey { sigma_t } => {
+                Rgb::splat(if *sigma_t > 0.0 { (-sigma_t * t).exp() } else { 1.0 })
+            }
+            SegmentTransmittance::Steps(steps) => Rgb::splat(vdb::steps_at(steps, t)),
         }
     }
 }
 
 impl Medium {
-    /// Samples a collision along `o + t d`, 0 < t < `t_max` (`t_max` may be infinite), from
-    /// three uniforms.
+    /// Samples a collision along `o + t d`, 0 < t < `t_max` (`t_max` may be infinite).
     #[inline]
-    pub fn sample_free_flight(&self, _o: Vec3, _d: Vec3, t_max: f32, u: [f32; 2]) -> FreeFlight {
+    pub fn sample_free_flight(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> FreeFlight {
         match self {
-            Medium::Homogeneous(h) => h.sample_free_flight(t_max, u[0], u[1]),
+            Medium::Homogeneous(h) => h.sample_free_flight(t_max, s.next_f32(), s.next_f32()),
+            Medium::Vdb(v) => v.sample_free_flight(o, d, t_max, s),
         }
     }
 
-    /// Transmittance along `o + t d` for 0 < t < `t_max`.
+    /// Transmittance along `o + t d` for 0 < t < `t_max` (an unbiased estimate for grids).
     #[inline]
-    pub fn transmittance(&self, _o: Vec3, _d: Vec3, t_max: f32) -> Rgb {
+    pub fn transmittance(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> Rgb {
         match self {
             Medium::Homogeneous(h) => h.transmittance(t_max),
+            Medium::Vdb(v) => v.transmittance(o, d, t_max, s),
         }
     }
 
-    /// A transmittance function T(0, t) along `o + t d` for t < `t_max`.
+    /// A transmittance function T(0, t) along `o + t d` for t < `t_max`: exact for homogeneous
+    /// media, one ratio-tracking estimate for grids.
     #[inline]
-    pub fn segment(&self, _o: Vec3, _d: Vec3, _t_max: f32) -> SegmentTransmittance {
+    pub fn segment(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> SegmentTransmittance {
         match self {
             Medium::Homogeneous(h) => {
                 let sigma_t = h.sigma_t();
@@ -94,14 +109,16 @@ impl Medium {
                     SegmentTransmittance::Exponential { sigma_t }
                 }
             }
+            Medium::Vdb(v) => SegmentTransmittance::Steps(v.transmittance_steps(o, d, t_max, s)),
         }
     }
 
     /// Scattering coefficient at `p`.
     #[inline]
-    pub fn sigma_s(&self, _p: Vec3) -> Rgb {
+    pub fn sigma_s(&self, p: Vec3) -> Rgb {
         match self {
             Medium::Homogeneous(h) => h.sigma_s,
+            Medium::Vdb(v) => v.sigma_s(p),
         }
     }
 
@@ -110,6 +127,7 @@ impl Medium {
     pub fn phase(&self) -> &HenyeyGreenstein {
         match self {
             Medium::Homogeneous(h) => &h.phase,
+            Medium::Vdb(v) => v.phase(),
         }
     }
 }

@@ -104,7 +104,7 @@ fn trace_path(
         if let Some(id) = medium {
             let m = &scene.media[id as usize];
             let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-            let flight = m.sample_free_flight(o, d, t_max, [s.next_f32(), s.next_f32()]);
+            let flight = m.sample_free_flight(o, d, t_max, &mut s);
             if flight.scattered {
                 let p = o + d * flight.t;
                 beta *= flight.weight;

@@ -82,9 +82,27 @@ pub struct HomogeneousDef {
     pub g: Option<f32>,
 }
 
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VdbDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub file: String,
+    pub grid: Option<String>,
+    pub density_scale: Option<f32>,
+    pub sigma_a: Option<ColorDef>,
+    pub sigma_s: Option<ColorDef>,
+    pub albedo: Option<ColorDef>,
+    pub sigma_t: Option<ColorDef>,
+    pub g: Option<f32>,
+    #[serde(default)]
+    pub transform: TransformDef,
+}
+
 #[derive(Debug)]
 pub enum MediumDef {
     Homogeneous(HomogeneousDef),
+    Vdb(VdbDef),
 }
 
 #[derive(Debug, Deserialize)]
@@ -364,8 +382,11 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         for (name, v) in table.iter() {
             let name = name.get_ref().to_string();
             let key = format!("media.{name}");
-            kind(v, &key, &["homogeneous"])?;
-            media.push((name, MediumDef::Homogeneous(typed(v, &key)?), v.span()));
+            let def = match kind(v, &key, &["homogeneous", "vdb"])? {
+                "homogeneous" => MediumDef::Homogeneous(typed(v, &key)?),
+                _ => MediumDef::Vdb(typed(v, &key)?),
+            };
+            media.push((name, def, v.span()));
         }
     }
     let mut media = Vec::new();
@@ -377,8 +398,11 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         for (name, v) in table.iter() {
             let name = name.get_ref().to_string();
             let key = format!("media.{name}");
-            kind(v, &key, &["homogeneous"])?;
-            media.push((name, MediumDef::Homogeneous(typed(v, &key)?), v.span()));
+            let def = match kind(v, &key, &["homogeneous", "vdb"])? {
+                "homogeneous" => MediumDef::Homogeneous(typed(v, &key)?),
+                _ => MediumDef::Vdb(typed(v, &key)?),
+            };
+            media.push((name, def, v.span()));
         }
     }
     let mut shapes = Vec::new();

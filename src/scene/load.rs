@@ -5,7 +5,7 @@ use super::camera::{Camera, Projection};
 use super::format::{
     self, BoxDef, CameraDef, ColorDef, HomogeneousDef, LightDef, MaterialDef, MediumDef, MeshDef,
     ObjDef, OrthographicDef, PerspectiveDef, RectangleDef, RenderDef, ScaleDef, SceneFile,
-    ShapeDef, SphereDef, TransformDef,
+    ShapeDef, SphereDef, TransformDef, VdbDef,
 };
 use super::material::Material;
 use super::shape::{self, Mesh};
@@ -13,7 +13,9 @@ use super::{Geometry, LightDesc, MediumInterface, Scene, SceneBuilder};
 use crate::error::{Error, Result};
 use crate::math::Rgb;
 use crate::medium::Medium;
+use crate::medium::grid::DensityGrid;
 use crate::medium::homogeneous::Homogeneous;
+use crate::medium::vdb::VdbMedium;
 use crate::medium::phase::HenyeyGreenstein;
 use crate::settings::{Radius, RenderSettings};
 use glam::Vec3;
@@ -122,8 +124,12 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
         b.material(name, m)?;
     }
     for (name, m, _) in &file.media {
-        let MediumDef::Homogeneous(d) = m;
-        b.medium(name, homogeneous(d, &format!("media.{name}"), places)?)?;
+        let key = format!("media.{name}");
+        let medium = match m {
+            MediumDef::Homogeneous(d) => homogeneous(d, &key, places)?,
+            MediumDef::Vdb(d) => vdb(d, &key, places, base_dir)?,
+        };
+        b.medium(name, medium)?;
     }
     let known_media: Vec<&String> = file.media.iter().map(|(n, _, _)| n).collect();
     let medium = |key: String, name: Option<&String>| -> Result<Option<u32>> {
@@ -197,10 +203,14 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
     b.build()
 }
 
-/// A homogeneous medium from either (σ_a, σ_s) or (albedo, σ_t).
-fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium> {
+/// (σ_a, σ_s) from either (σ_a, σ_s) or (albedo, σ_t).
+fn coefficients(
+    pairs: (Option<ColorDef>, Option<ColorDef>, Option<ColorDef>, Option<ColorDef>),
+    key: &str,
+    places: &Places,
+) -> Result<(Vec3, Vec3)> {
     let err = |k: &str, m: &str| places.error(format!("{key}.{k}"), m.to_string());
-    let (sigma_a, sigma_s) = match (d.sigma_a, d.sigma_s, d.albedo, d.sigma_t) {
+    Ok(match pairs {
         (Some(a), Some(s), None, None) => (color(a), color(s)),
         (None, None, Some(albedo), Some(t)) => {
             let (albedo, t) = (color(albedo), color(t));
@@ -225,9 +235,31 @@ fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium>
                 "give either sigma_a and sigma_s, or albedo and sigma_t, not both pairs",
             ));
         }
-    };
+    })
+}
+
+/// A homogeneous medium.
+fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium> {
+    let (sigma_a, sigma_s) = coefficients((d.sigma_a, d.sigma_s, d.albedo, d.sigma_t), key, places)?;
     let g = d.g.unwrap_or(0.0);
     Ok(Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase: HenyeyGreenstein { g } }))
+}
+
+/// A grid medium: the OpenVDB file is read here, relative to the scene file.
+fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium> {
+    let (sigma_a, sigma_s) = coefficients((d.sigma_a, d.sigma_s, d.albedo, d.sigma_t), key, places)?;
+    let scale = d.density_scale.unwrap_or(1.0);
+    if !(scale.is_finite() && scale >= 0.0) {
+        return Err(places.error(
+            format!("{key}.density_scale"),
+            format!("must be finite and non-negative, got {scale}"),
+        ));
+    }
+    let to_scene = transform(&d.transform, key, places)?;
+    let path = base_dir.join(&d.file);
+    let grid = DensityGrid::load(&path, d.grid.as_deref().unwrap_or("density"))?;
+    let phase = HenyeyGreenstein { g: d.g.unwrap_or(0.0) };
+    Ok(Medium::Vdb(Box::new(VdbMedium::new(grid, to_scene, scale, sigma_a, sigma_s, phase))))
 }
 
 /// Largest image: 64 Mpixel (the film holds 24 bytes per pixel).

@@ -277,17 +277,28 @@ impl SceneBuilder {
             return Err(invalid(format!("media.{name}"), "defined twice"));
         }
         let key = |k: &str| format!("media.{name}.{k}");
-        match &medium {
-            Medium::Homogeneous(h) => {
-                check_color(key("sigma_a"), h.sigma_a, None)?;
-                check_color(key("sigma_s"), h.sigma_s, None)?;
-                let g = h.phase.g;
-                if !(g > -1.0 && g < 1.0) {
-                    return Err(invalid(
-                        key("g"),
-                        format!("must lie strictly between -1 and 1, got {g}"),
-                    ));
-                }
+        let (sigma_a, sigma_s, g) = match &medium {
+            Medium::Homogeneous(h) => (h.sigma_a, h.sigma_s, h.phase.g),
+            Medium::Vdb(v) => {
+                let (a, s) = v.coefficients();
+                (a, s, v.phase().g)
+            }
+        };
+        check_color(key("sigma_a"), sigma_a, None)?;
+        check_color(key("sigma_s"), sigma_s, None)?;
+        if !(g > -1.0 && g < 1.0) {
+            return Err(invalid(key("g"), format!("must lie strictly between -1 and 1, got {g}")));
+        }
+        if let Medium::Vdb(_) = &medium {
+            let t = sigma_a + sigma_s;
+            if t.x != t.y || t.y != t.z {
+                return Err(invalid(
+                    key("sigma_s"),
+                    format!(
+                        "a grid medium needs the same extinction σ_a + σ_s in every channel \
+                         (delta tracking), got {t}; colour the albedo instead"
+                    ),
+                ));
             }
         }
         self.media.push((name.to_string(), medium));
