@@ -7,13 +7,12 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The underlying I/O error.
-        #[source]
-        source: std::io::Error,
+        /// The underlying I/O error (part of the message, so not also a `source`).
+        error: std::io::Error,
     },
     /// The scene file is not valid TOML or does not match the scene format.
     #[error("{path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]

@@ -339,8 +339,12 @@ fn bench(args: BenchArgs) -> Result<()> {
         photon_s / timed as f64
     );
     println!(
-        "| camera pass (trace + {} estimate) | {:.0} camera paths/s | {:.4} |",
-        settings.volume_estimate.name(),
+        "| camera pass (trace + {}) | {:.0} camera paths/s | {:.4} |",
+        if scene.media.is_empty() {
+            "surface estimate".to_string()
+        } else {
+            format!("surface and {} estimates", settings.volume_estimate.name())
+        },
         pixels / camera_s,
         camera_s / timed as f64
     );

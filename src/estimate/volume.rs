@@ -20,21 +20,31 @@ use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
 use glam::Vec3;
 
+/// A segment o + tω, 0 < t < `t_max`, of an eye path in a medium.
+#[derive(Clone, Copy, Debug)]
+pub struct EyeSegment {
+    /// Origin.
+    pub o: Vec3,
+    /// Unit direction ω.
+    pub w: Vec3,
+    /// End of the segment.
+    pub t_max: f32,
+}
+
 /// The beam radiance estimate along o + tω, 0 < t < `t_max`, in medium `id`, with the segment's
 /// transmittance `tr`. The photons in `map` carry β·σ_s(x_p) (see `BeamMap::build`).
 pub fn beam_radiance(
     map: &BeamMap,
     medium: &Medium,
     id: u32,
-    o: Vec3,
-    w: Vec3,
-    t_max: f32,
+    segment: &EyeSegment,
     tr: &SegmentTransmittance,
     g: &Gather,
 ) -> Rgb {
     let phase = medium.phase();
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;
+    let EyeSegment { o, w, t_max } = *segment;
     map.query(o, w, t_max, |ph, t, d2| {
         if ph.medium == id {
             let k = g.kernel.eval(d2 * inv_r2, 2);

@@ -7,7 +7,7 @@
 //! collision the path goes on with the free-flight weight).
 
 use crate::estimate::surface::{Gather, surface_radiance};
-use crate::estimate::volume::{beam_radiance, point_radiance};
+use crate::estimate::volume::{EyeSegment, beam_radiance, point_radiance};
 use crate::math::{Rgb, offset_origin};
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
@@ -68,7 +68,8 @@ fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32)
                     // the path's continuation.
                     let tr = m.segment(o, d, t_max, &mut s);
                     let volume = &pass.volume;
-                    l += beta * beam_radiance(maps.volume_beams, m, id, o, d, t_max, &tr, volume);
+                    let seg = EyeSegment { o, w: d, t_max };
+                    l += beta * beam_radiance(maps.volume_beams, m, id, &seg, &tr, volume);
                     beta *= tr.at(t_max);
                 }
                 VolumeEstimate::Point => {

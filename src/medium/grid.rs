@@ -81,7 +81,7 @@ impl DensityGrid {
     pub fn load(path: &Path, name: &str) -> Result<DensityGrid> {
         let err = |m: String| volume_error(path, m);
         let mut file = std::fs::File::open(path)
-            .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+            .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
         let len = file.metadata().map(|m| m.len()).unwrap_or(0);
         let mut magic = [0u8; 8];
         if file.read_exact(&mut magic).is_err() || magic[..4] != [0x20, 0x42, 0x44, 0x56] {
@@ -151,7 +151,7 @@ impl DensityGrid {
         let mut head = vec![0u8; (end - gd.grid_pos).min(1 << 20) as usize];
         {
             let mut f = std::fs::File::open(path)
-                .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+                .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
             f.seek(SeekFrom::Start(gd.grid_pos)).map_err(|e| err(e.to_string()))?;
             f.read_exact(&mut head)
                 .map_err(|_| err(format!("grid `{name}`: file is truncated")))?;

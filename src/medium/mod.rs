@@ -16,8 +16,8 @@ pub mod phase;
 pub mod vdb;
 
 use crate::math::Rgb;
-use glam::Vec3;
 use crate::rng::Sampler;
+use glam::Vec3;
 use homogeneous::Homogeneous;
 use phase::HenyeyGreenstein;
 use vdb::VdbMedium;

@@ -148,7 +148,8 @@ impl VdbMedium {
         let mut t = t_start;
         loop {
             let t_out = next.min_element().min(t_end);
-            let m = self.majorant[(cell.x + self.cells.x * (cell.y + self.cells.y * cell.z)) as usize];
+            let m =
+                self.majorant[(cell.x + self.cells.x * (cell.y + self.cells.y * cell.z)) as usize];
             if t_out > t && !f(t, t_out, m * self.sigma_t) {
                 return;
             }
@@ -223,7 +224,13 @@ impl VdbMedium {
     }
 
     /// One ratio-tracking run over [0, t_max) kept as a step function (see the module docs).
-    pub fn transmittance_steps(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> TransmittanceSteps {
+    pub fn transmittance_steps(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        s: &mut Sampler,
+    ) -> TransmittanceSteps {
         let mut steps = Vec::new();
         let mut tr = 1.0f32;
         self.walk(o, d, t_max, |a, b, mu| {

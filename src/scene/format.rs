@@ -322,10 +322,15 @@ fn array<'a, 'i>(v: &'a Value<'i>, key: &str) -> Result<&'a [Value<'i>], FormatE
 
 /// Parses scene text into [`SceneFile`].
 pub fn read(text: &str) -> Result<SceneFile, FormatError> {
-    let root = DeTable::parse(text).map_err(|e| FormatError {
-        key: String::new(),
-        at: e.span().map(|s| s.start),
-        message: e.message().trim().to_string(),
+    let root = DeTable::parse(text).map_err(|e| {
+        let mut message = e.message().trim().to_string();
+        // Name the key when the parser only says "duplicate key".
+        if let Some(span) = e.span().filter(|_| message == "duplicate key") {
+            if let Some(key) = text.get(span.clone()).filter(|k| !k.is_empty()) {
+                message = format!("duplicate key `{}`", key.trim());
+            }
+        }
+        FormatError { key: String::new(), at: e.span().map(|s| s.start), message }
     })?;
     let root = root.get_ref();
     for (k, v) in root.iter() {

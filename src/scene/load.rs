@@ -15,8 +15,8 @@ use crate::math::Rgb;
 use crate::medium::Medium;
 use crate::medium::grid::DensityGrid;
 use crate::medium::homogeneous::Homogeneous;
-use crate::medium::vdb::VdbMedium;
 use crate::medium::phase::HenyeyGreenstein;
+use crate::medium::vdb::VdbMedium;
 use crate::settings::{Radius, RenderSettings};
 use glam::Vec3;
 use std::ops::Range;
@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 pub(super) fn load_file(path: &Path) -> Result<Scene> {
     let text = std::fs::read_to_string(path)
-        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
     let base = path.parent().unwrap_or(Path::new("."));
     load_str(&text, path, base)
 }
@@ -240,14 +240,16 @@ fn coefficients(
 
 /// A homogeneous medium.
 fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<Medium> {
-    let (sigma_a, sigma_s) = coefficients((d.sigma_a, d.sigma_s, d.albedo, d.sigma_t), key, places)?;
+    let (sigma_a, sigma_s) =
+        coefficients((d.sigma_a, d.sigma_s, d.albedo, d.sigma_t), key, places)?;
     let g = d.g.unwrap_or(0.0);
     Ok(Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase: HenyeyGreenstein { g } }))
 }
 
 /// A grid medium: the OpenVDB file is read here, relative to the scene file.
 fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium> {
-    let (sigma_a, sigma_s) = coefficients((d.sigma_a, d.sigma_s, d.albedo, d.sigma_t), key, places)?;
+    let (sigma_a, sigma_s) =
+        coefficients((d.sigma_a, d.sigma_s, d.albedo, d.sigma_t), key, places)?;
     let scale = d.density_scale.unwrap_or(1.0);
     if !(scale.is_finite() && scale >= 0.0) {
         return Err(places.error(
