@@ -28,7 +28,7 @@ pub struct Photon {
 
 /// A photon stored in a medium, at a real collision of a light path.
 ///
-/// Power convention (DESIGN §4): `beta` is the light path's throughput **after** division by the
+/// Power convention (docs/theory.md): `beta` is the light path's throughput **after** division by the
 /// free-flight pdf of this collision — β · T(t)/p(t) — and **before** the scattering albedo:
 /// estimates multiply by σ_s(x) and the phase function when merging. Like surface photons, it is
 /// in watts per emitted light path (divide sums by the number of emitted paths).
