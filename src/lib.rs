@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 pub mod accel;
+pub mod dda;
 pub mod error;
 pub mod estimate;
 pub mod film;

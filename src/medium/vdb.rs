@@ -115,67 +115,24 @@ impl VdbMedium {
         (self.sigma_a, self.sigma_s)
     }
 
-    /// Visits the majorant segments of o + t d, t ∈ [0, t_max): `f(t_start, t_end, μ̄)` with μ̄
-    /// the majorant extinction (1/length) on the segment; `f` returns `false` to stop.
-    fn walk(&self, o: Vec3, d: Vec3, t_max: f32, mut f: impl FnMut(f32, f32, f32) -> bool) {
-        let oi = self.to_index.transform_point3(o);
-        let di = self.to_index.transform_vector3(d);
-        // Into coarse-cell coordinates.
+    /// Draws the tentative collisions of o + t d, t ∈ [0, t_max), at the rate of the majorant
+    /// μ̄ of each majorant cell (empty cells cost one step), calling `f(t, σ_t(t), μ̄, sampler)` at
+    /// each; `f` returns `false` to stop.
+    fn tentative(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        s: &mut Sampler,
+        mut f: impl FnMut(f32, f32, f32, &mut Sampler) -> bool,
+    ) {
+        // Coarse-cell coordinates: cell k spans [k, k + 1).
         let scale = 1.0 / MAJORANT_CELL as f32;
-        let oc = (oi - self.lo) * scale;
-        let dc = di * scale;
-        let inv = |x: f32| if x.abs() < 1e-30 { 1e30 } else { 1.0 / x };
-        let inv_d = Vec3::new(inv(dc.x), inv(dc.y), inv(dc.z));
-        let t1 = (Vec3::ZERO - oc) * inv_d;
-        let t2 = (self.cells.as_vec3() - oc) * inv_d;
-        let t_start = t1.min(t2).max_element().max(0.0);
-        let t_end = t1.max(t2).min_element().min(t_max);
-        if t_start.partial_cmp(&t_end) != Some(std::cmp::Ordering::Less) {
-            return;
-        }
-        let mut cell = (oc + dc * t_start).floor().as_ivec3().clamp(IVec3::ZERO, self.cells - 1);
-        let step = IVec3::new(
-            if dc.x >= 0.0 { 1 } else { -1 },
-            if dc.y >= 0.0 { 1 } else { -1 },
-            if dc.z >= 0.0 { 1 } else { -1 },
-        );
-        let delta = inv_d.abs();
-        let mut next = Vec3::ZERO;
-        for a in 0..3 {
-            let edge = (cell[a] + if step[a] > 0 { 1 } else { 0 }) as f32;
-            next[a] = if dc[a].abs() < 1e-30 { f32::INFINITY } else { (edge - oc[a]) * inv_d[a] };
-        }
-        let mut t = t_start;
-        loop {
-            let t_out = next.min_element().min(t_end);
-            let m =
-                self.majorant[(cell.x + self.cells.x * (cell.y + self.cells.y * cell.z)) as usize];
-            if t_out > t && !f(t, t_out, m * self.sigma_t) {
-                return;
-            }
-            if t_out >= t_end {
-                return;
-            }
-            let axis = if next.x <= next.y && next.x <= next.z {
-                0
-            } else if next.y <= next.z {
-                1
-            } else {
-                2
-            };
-            cell[axis] += step[axis];
-            next[axis] += delta[axis];
-            if cell[axis] < 0 || cell[axis] >= self.cells[axis] {
-                return;
-            }
-            t = t_out;
-        }
-    }
-
-    /// Delta tracking: a collision with pdf σ_t(t) T(0, t), weight 1/σ_t(t); or none, weight 1.
-    pub fn sample_free_flight(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> FreeFlight {
-        let mut hit: Option<(f32, f32)> = None;
-        self.walk(o, d, t_max, |a, b, mu| {
+        let oc = (self.to_index.transform_point3(o) - self.lo) * scale;
+        let dc = self.to_index.transform_vector3(d) * scale;
+        crate::dda::walk(oc, dc, t_max, self.cells, |cell, a, b| {
+            let i = (cell.x + self.cells.x * (cell.y + self.cells.y * cell.z)) as usize;
+            let mu = self.majorant[i] * self.sigma_t;
             if mu <= 0.0 {
                 return true;
             }
@@ -185,12 +142,22 @@ impl VdbMedium {
                 if t >= b {
                     return true;
                 }
-                let sigma_t = self.sigma_t * self.density(o + d * t);
-                if s.next_f32() * mu < sigma_t {
-                    hit = Some((t, sigma_t));
+                if !f(t, self.sigma_t * self.density(o + d * t), mu, s) {
                     return false;
                 }
             }
+        });
+    }
+
+    /// Delta tracking: a collision with pdf σ_t(t) T(0, t), weight 1/σ_t(t); or none, weight 1.
+    pub fn sample_free_flight(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> FreeFlight {
+        let mut hit: Option<(f32, f32)> = None;
+        self.tentative(o, d, t_max, s, |t, sigma_t, mu, s| {
+            if s.next_f32() * mu < sigma_t {
+                hit = Some((t, sigma_t));
+                return false;
+            }
+            true
         });
         match hit {
             Some((t, sigma_t)) => {
@@ -203,24 +170,11 @@ impl VdbMedium {
     /// Ratio tracking estimate of the transmittance over [0, t_max).
     pub fn transmittance(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> Rgb {
         let mut tr = 1.0f32;
-        self.walk(o, d, t_max, |a, b, mu| {
-            if mu <= 0.0 {
-                return true;
-            }
-            let mut t = a;
-            loop {
-                t -= (1.0 - s.next_f32()).ln() / mu;
-                if t >= b {
-                    return true;
-                }
-                tr *= 1.0 - self.sigma_t * self.density(o + d * t) / mu;
-                if tr <= 0.0 {
-                    tr = 0.0;
-                    return false;
-                }
-            }
+        self.tentative(o, d, t_max, s, |_, sigma_t, mu, _| {
+            tr *= 1.0 - sigma_t / mu;
+            tr > 0.0
         });
-        Rgb::splat(tr)
+        Rgb::splat(tr.max(0.0))
     }
 
     /// One ratio-tracking run over [0, t_max) kept as a step function (see the module docs).
@@ -233,22 +187,10 @@ impl VdbMedium {
     ) -> TransmittanceSteps {
         let mut steps = Vec::new();
         let mut tr = 1.0f32;
-        self.walk(o, d, t_max, |a, b, mu| {
-            if mu <= 0.0 {
-                return true;
-            }
-            let mut t = a;
-            loop {
-                t -= (1.0 - s.next_f32()).ln() / mu;
-                if t >= b {
-                    return true;
-                }
-                tr = (tr * (1.0 - self.sigma_t * self.density(o + d * t) / mu)).max(0.0);
-                steps.push((t, tr));
-                if tr == 0.0 {
-                    return false;
-                }
-            }
+        self.tentative(o, d, t_max, s, |t, sigma_t, mu, _| {
+            tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
+            steps.push((t, tr));
+            tr > 0.0
         });
         steps
     }

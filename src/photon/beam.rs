@@ -172,38 +172,11 @@ impl BeamMap {
         if self.photons.is_empty() {
             return;
         }
-        // Clip the segment to the grid's bounds.
-        let inv = |x: f32| if x.abs() < 1e-30 { 1e30 } else { 1.0 / x };
-        let inv_d = Vec3::new(inv(d.x), inv(d.y), inv(d.z));
-        let t1 = (self.lo - o) * inv_d;
-        let t2 = (self.hi - o) * inv_d;
-        let t_start = t1.min(t2).max_element().max(0.0);
-        let t_end = t1.max(t2).min_element().min(t_max);
-        if t_start.partial_cmp(&t_end) != Some(std::cmp::Ordering::Less) {
-            return;
-        }
         let r2 = self.radius * self.radius;
-        let p0 = o + d * t_start;
-        let mut cell = self.cell_of(p0);
-        let step = IVec3::new(
-            if d.x >= 0.0 { 1 } else { -1 },
-            if d.y >= 0.0 { 1 } else { -1 },
-            if d.z >= 0.0 { 1 } else { -1 },
-        );
-        let delta = (Vec3::splat(self.cell) * inv_d).abs();
-        let boundary = |c: i32, s: i32, axis: usize| -> f32 {
-            let edge = self.lo[axis] + (c + if s > 0 { 1 } else { 0 }) as f32 * self.cell;
-            let t = (edge - o[axis]) * inv_d[axis];
-            if d[axis].abs() < 1e-30 { f32::INFINITY } else { t }
-        };
-        let mut next = Vec3::new(
-            boundary(cell.x, step.x, 0),
-            boundary(cell.y, step.y, 1),
-            boundary(cell.z, step.z, 2),
-        );
-        let mut t_in = t_start;
-        loop {
-            let t_out = next.min_element().min(t_end);
+        // Walk the cells in grid coordinates, where cell k spans [k, k + 1).
+        let og = (o - self.lo) * self.inv_cell;
+        let dg = d * self.inv_cell;
+        crate::dda::walk(og, dg, t_max, self.dims, |cell, t_in, t_out| {
             let b = self.index(cell);
             let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
             for (q, &i) in self.entry_pos[s..e].iter().zip(&self.entry_idx[s..e]) {
@@ -214,24 +187,8 @@ impl BeamMap {
                     f(&self.photons[i as usize], t, d2.max(0.0));
                 }
             }
-            if t_out >= t_end {
-                break;
-            }
-            // Step along the axis whose boundary comes first; leaving the grid ends the walk.
-            let axis = if next.x <= next.y && next.x <= next.z {
-                0
-            } else if next.y <= next.z {
-                1
-            } else {
-                2
-            };
-            cell[axis] += step[axis];
-            next[axis] += delta[axis];
-            if cell[axis] < 0 || cell[axis] >= self.dims[axis] {
-                break;
-            }
-            t_in = t_out;
-        }
+            true
+        });
     }
 }
 
