@@ -160,7 +160,7 @@ impl DensityGrid {
             Some("UniformScaleMap" | "UniformScaleTranslateMap" | "ScaleTranslateMap") => {}
             Some(other) => {
                 return Err(err(format!(
-                    "grid `{name}` has a {other} transform; haze reads uniform-scale and \
+                    "grid `{name}` has an `{other}` transform; haze reads uniform-scale and \
                      scale-translate maps only (resample the grid, or place it with the medium's \
                      `transform`)"
                 )));

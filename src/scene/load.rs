@@ -259,7 +259,8 @@ fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium
     }
     let to_scene = transform(&d.transform, key, places)?;
     let path = base_dir.join(&d.file);
-    let grid = DensityGrid::load(&path, d.grid.as_deref().unwrap_or("density"))?;
+    let grid = DensityGrid::load(&path, d.grid.as_deref().unwrap_or("density"))
+        .map_err(|e| places.error(format!("{key}.file"), e.to_string()))?;
     let phase = HenyeyGreenstein { g: d.g.unwrap_or(0.0) };
     Ok(Medium::Vdb(Box::new(VdbMedium::new(grid, to_scene, scale, sigma_a, sigma_s, phase))))
 }

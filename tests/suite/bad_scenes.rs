@@ -216,3 +216,24 @@ fn the_documented_complete_example_loads() {
     assert_eq!(scene.shapes.len(), 6);
     assert_eq!(scene.lights.len(), 2);
 }
+
+#[test]
+fn bad_grid_media_name_the_key_and_the_volume_file() {
+    let media = concat!(env!("CARGO_MANIFEST_DIR"), "/media");
+    let vdb = |file: &str, extra: &str| {
+        format!(
+            "{CAMERA}{BODY}\n[media.cloud]\ntype = \"vdb\"\nfile = \"{media}/{file}\"\nsigma_a = 0.1\nsigma_s = 0.9\n{extra}"
+        )
+    };
+    load(&vdb("cloud.vdb", "")).unwrap();
+    expect_error(
+        &vdb("bad/half-float.vdb", ""),
+        &["media.cloud.file", "half-float.vdb", "half floats"],
+    );
+    expect_error(&vdb("bad/affine.vdb", ""), &["media.cloud.file", "AffineMap"]);
+    expect_error(&vdb("nowhere.vdb", ""), &["media.cloud.file", "nowhere.vdb"]);
+    expect_error(&vdb("cloud.vdb", "grid = \"smoke\"\n"), &["media.cloud.file", "smoke"]);
+    expect_error(&vdb("cloud.vdb", "density_scale = -1\n"), &["media.cloud.density_scale"]);
+    let text = vdb("cloud.vdb", "").replace("sigma_s = 0.9", "sigma_s = [0.9, 0.5, 0.9]");
+    expect_error(&text, &["media.cloud.sigma_s", "same extinction"]);
+}
