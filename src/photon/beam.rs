@@ -17,7 +17,7 @@
 //! between iterations.
 
 use super::VolumePhoton;
-use glam::{IVec3, Vec3};
+use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
 /// Mean photons per cell the cell size aims for when the radius is small.
@@ -31,7 +31,9 @@ const MAX_CELLS: f32 = (1 << 22) as f32;
 pub struct BeamMap {
     photons: Vec<VolumePhoton>,
     /// Cell entries, grouped by cell: the photon's position (read first) and its index.
-    entry_pos: Vec<Vec3>,
+    entry_x: Vec<f32>,
+    entry_y: Vec<f32>,
+    entry_z: Vec<f32>,
     entry_idx: Vec<u32>,
     /// start[c]..start[c + 1] are cell c's entries.
     start: Vec<u32>,
@@ -83,7 +85,9 @@ impl BeamMap {
     ) {
         self.photons.clear();
         self.photons.extend(photons.iter().map(|p| VolumePhoton { beta: weight(p), ..*p }));
-        self.entry_pos.clear();
+        self.entry_x.clear();
+        self.entry_y.clear();
+        self.entry_z.clear();
         self.entry_idx.clear();
         self.radius = radius;
         if photons.is_empty() {
@@ -153,13 +157,16 @@ impl BeamMap {
         for k in 0..cells {
             self.start[k + 1] += self.start[k];
         }
-        self.entry_pos.resize(pairs.len(), Vec3::ZERO);
+        for v in [&mut self.entry_x, &mut self.entry_y, &mut self.entry_z] {
+            v.resize(pairs.len(), 0.0);
+        }
         self.entry_idx.resize(pairs.len(), 0);
         let mut cursor = self.start[..cells].to_vec();
         for &(k, i) in &pairs {
             let slot = cursor[k as usize] as usize;
             cursor[k as usize] += 1;
-            self.entry_pos[slot] = photons[i as usize].p;
+            let p = photons[i as usize].p;
+            (self.entry_x[slot], self.entry_y[slot], self.entry_z[slot]) = (p.x, p.y, p.z);
             self.entry_idx[slot] = i;
         }
         self.scratch = pairs;
@@ -173,18 +180,44 @@ impl BeamMap {
             return;
         }
         let r2 = self.radius * self.radius;
+        let r2v = Vec4::splat(r2);
+        let (ox, oy, oz) = (Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z));
+        let (dx, dy, dz) = (Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z));
         // Walk the cells in grid coordinates, where cell k spans [k, k + 1).
         let og = (o - self.lo) * self.inv_cell;
         let dg = d * self.inv_cell;
         crate::dda::walk(og, dg, t_max, self.dims, |cell, t_in, t_out| {
             let b = self.index(cell);
             let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
-            for (q, &i) in self.entry_pos[s..e].iter().zip(&self.entry_idx[s..e]) {
-                let v = *q - o;
+            // Four entries at a time (SSE through glam's Vec4), the rare hits one by one.
+            let (xs, ys, zs) = (&self.entry_x[s..e], &self.entry_y[s..e], &self.entry_z[s..e]);
+            let mut j = 0;
+            while j + 4 <= xs.len() {
+                let vx = Vec4::from_slice(&xs[j..j + 4]) - ox;
+                let vy = Vec4::from_slice(&ys[j..j + 4]) - oy;
+                let vz = Vec4::from_slice(&zs[j..j + 4]) - oz;
+                let t = vx * dx + vy * dy + vz * dz;
+                let d2 = vx * vx + vy * vy + vz * vz - t * t;
+                let inside = d2.cmplt(r2v)
+                    & t.cmpge(Vec4::splat(t_in.max(0.0)))
+                    & t.cmplt(Vec4::splat(t_out));
+                let mut mask = inside.bitmask();
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let (tk, dk) = (t[k], d2[k]);
+                    if tk > 0.0 {
+                        f(&self.photons[self.entry_idx[s + j + k] as usize], tk, dk.max(0.0));
+                    }
+                }
+                j += 4;
+            }
+            for k in j..xs.len() {
+                let v = Vec3::new(xs[k], ys[k], zs[k]) - o;
                 let t = v.dot(d);
                 let d2 = v.length_squared() - t * t;
                 if d2 < r2 && t >= t_in && t < t_out && t > 0.0 {
-                    f(&self.photons[i as usize], t, d2.max(0.0));
+                    f(&self.photons[self.entry_idx[s + k] as usize], t, d2.max(0.0));
                 }
             }
             true
