@@ -5,7 +5,7 @@ use clap::{Args, Parser, Subcommand};
 use haze::Scene;
 use haze::estimate::kernel::Kernel;
 use haze::progress::Status;
-use haze::settings::{Radius, RenderSettings, VolumeEstimate};
+use haze::settings::{Integrator, Radius, RenderSettings, VolumeEstimate};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -74,6 +74,9 @@ struct Overrides {
     /// Dimension d of the volume radius schedule (3 by default; 2 for experiments).
     #[arg(long, value_name = "D")]
     volume_dimension: Option<u32>,
+    /// Integrator: ppm (progressive photon mapping) or path (unbiased reference path tracer).
+    #[arg(long, value_name = "NAME", value_parser = parse_integrator)]
+    integrator: Option<Integrator>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(short = 'j', long, value_name = "T")]
     threads: Option<usize>,
@@ -137,6 +140,10 @@ fn parse_volume_estimate(s: &str) -> Result<VolumeEstimate, String> {
     s.parse()
 }
 
+fn parse_integrator(s: &str) -> Result<Integrator, String> {
+    s.parse()
+}
+
 /// The scene's settings with the command-line overrides applied and validated.
 fn apply(base: &RenderSettings, o: &Overrides) -> Result<RenderSettings> {
     let mut s = base.clone();
@@ -172,6 +179,7 @@ fn apply(base: &RenderSettings, o: &Overrides) -> Result<RenderSettings> {
         s.volume_radius = Radius::Fraction(f);
     }
     s.volume_dimension = o.volume_dimension.unwrap_or(s.volume_dimension);
+    s.integrator = o.integrator.unwrap_or(s.integrator);
     if let Err(e) = s.validate() {
         let flag = match e.key {
             "time_limit" => "time".to_string(),
@@ -252,12 +260,16 @@ fn render(args: RenderArgs) -> Result<()> {
     let png = image.write(&output, args.exposure)?;
     let i = &image.info;
     let interrupted = if stop.load(Ordering::Relaxed) { " (interrupted)" } else { "" };
+    let work = match i.integrator {
+        Integrator::PhotonMapping => {
+            format!("{} light paths, final radius {:.5}", i.light_paths, i.radius)
+        }
+        Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),
+    };
     eprintln!(
-        "{} iterations{interrupted}, {} light paths, {:.1} s, final radius {:.5}: wrote {} and {}",
+        "{} iterations{interrupted}, {work}, {:.1} s: wrote {} and {}",
         i.iterations,
-        i.light_paths,
         i.elapsed,
-        i.radius,
         output.display(),
         png.display()
     );

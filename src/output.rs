@@ -29,6 +29,8 @@ pub struct RenderInfo {
     pub volume_dimension: u32,
     /// Volume estimator.
     pub volume_estimate: crate::settings::VolumeEstimate,
+    /// Integrator.
+    pub integrator: crate::settings::Integrator,
     /// Kernel.
     pub kernel: Kernel,
     /// Seed.
@@ -112,6 +114,7 @@ impl Image {
         put("volumeDimension", AttributeValue::I32(info.volume_dimension as i32));
         put("volumeEstimate", AttributeValue::Text(Text::from(info.volume_estimate.name())));
         put("kernel", AttributeValue::Text(Text::from(info.kernel.name())));
+        put("integrator", AttributeValue::Text(Text::from(info.integrator.name())));
         put("seed", AttributeValue::Text(Text::from(info.seed.to_string().as_str())));
         put("elapsedSeconds", AttributeValue::F64(info.elapsed));
         let scene = info.scene.as_ref().map(|p| p.display().to_string()).unwrap_or_default();

@@ -15,6 +15,7 @@
 //! volume_alpha = 0.5        # α of the volume schedule r³(i+1)/r³(i) = (i+α)/(i+1)
 //! volume_radius_fraction = 0.005  # initial volume radius (or `volume_radius`, absolute)
 //! volume_dimension = 3      # dimension d of the volume schedule (3; 2 for experiments)
+//! integrator = "ppm"        # "ppm" (photon mapping) or "path" (reference path tracer)
 //! ```
 
 use crate::estimate::kernel::Kernel;
@@ -26,6 +27,36 @@ pub enum Radius {
     Absolute(f64),
     /// As a fraction of the diagonal of the scene's bounding box.
     Fraction(f64),
+}
+
+/// Which integrator renders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Integrator {
+    /// Probabilistic progressive photon mapping (the default).
+    PhotonMapping,
+    /// The unbiased volumetric path tracer with next-event estimation (reference and baseline).
+    Path,
+}
+
+impl Integrator {
+    /// Name as written in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::PhotonMapping => "ppm",
+            Integrator::Path => "path",
+        }
+    }
+}
+
+impl std::str::FromStr for Integrator {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "ppm" => Ok(Integrator::PhotonMapping),
+            "path" => Ok(Integrator::Path),
+            _ => Err(format!("unknown integrator `{s}`; expected \"ppm\" or \"path\"")),
+        }
+    }
 }
 
 /// How in-scattered radiance is estimated along eye paths in media.
@@ -87,6 +118,8 @@ pub struct RenderSettings {
     pub volume_radius: Radius,
     /// Dimension d of the volume schedule r^d(i+1)/r^d(i) = (i+α)/(i+1): 3 (default) or 2.
     pub volume_dimension: u32,
+    /// The integrator.
+    pub integrator: Integrator,
 }
 
 /// Most light paths per iteration: each stores photons of 48 bytes, several per path.
@@ -110,6 +143,7 @@ impl Default for RenderSettings {
             volume_alpha: 0.5,
             volume_radius: Radius::Fraction(0.005),
             volume_dimension: 3,
+            integrator: Integrator::PhotonMapping,
         }
     }
 }

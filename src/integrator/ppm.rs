@@ -5,6 +5,7 @@
 //! jittered eye path per pixel.
 
 use super::camera::{CameraPass, Maps, render_pass};
+use super::path::{self, PathPass};
 use crate::error::{Error, Result};
 use crate::estimate::radius::radius;
 use crate::estimate::surface::Gather;
@@ -16,7 +17,7 @@ use crate::photon::map::PhotonGrid;
 use crate::photon::trace::{LightSampler, PhotonPass, Photons, trace_photons};
 use crate::progress::{Progress, Status};
 use crate::scene::Scene;
-use crate::settings::{Radius, RenderSettings, VolumeEstimate};
+use crate::settings::{Integrator, Radius, RenderSettings, VolumeEstimate};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -64,51 +65,68 @@ pub fn render(
         let r = radius(i, r1, settings.alpha, 2);
         let r_vol = radius(i, r1_vol, settings.volume_alpha, settings.volume_dimension);
         let t0 = Instant::now();
-        let pass = PhotonPass {
-            seed: settings.seed,
-            iteration: i,
-            paths: settings.photons,
-            max_depth: settings.max_depth,
-        };
-        if !trace_photons(scene, &lights, &pass, stop, &mut photons) {
-            break;
-        }
-        surface_map.build(&photons.surface, r as f32);
-        match settings.volume_estimate {
-            VolumeEstimate::Beam => volume_beams.build(&photons.volume, r_vol as f32, |p| {
-                p.beta * scene.media[p.medium as usize].sigma_s(p.p)
-            }),
-            VolumeEstimate::Point => volume_points.build(&photons.volume, r_vol as f32),
-        }
-        let t1 = Instant::now();
-        let camera = CameraPass {
-            seed: settings.seed,
-            iteration: i,
-            max_depth: settings.max_depth,
-            surface: Gather {
-                radius: r as f32,
-                kernel: settings.kernel,
-                inv_paths: 1.0 / settings.photons as f32,
-            },
-            volume: Gather {
-                radius: r_vol as f32,
-                kernel: settings.kernel,
-                inv_paths: 1.0 / settings.photons as f32,
-            },
-            estimate: settings.volume_estimate,
-        };
-        let maps = Maps {
-            surface: &surface_map,
-            volume_points: &volume_points,
-            volume_beams: &volume_beams,
-        };
-        if !render_pass(scene, &maps, &camera, stop, &nonfinite, &mut image) {
-            break;
+        let t1;
+        match settings.integrator {
+            Integrator::PhotonMapping => {
+                let pass = PhotonPass {
+                    seed: settings.seed,
+                    iteration: i,
+                    paths: settings.photons,
+                    max_depth: settings.max_depth,
+                };
+                if !trace_photons(scene, &lights, &pass, stop, &mut photons) {
+                    break;
+                }
+                surface_map.build(&photons.surface, r as f32);
+                match settings.volume_estimate {
+                    VolumeEstimate::Beam => {
+                        volume_beams.build(&photons.volume, r_vol as f32, |p| {
+                            p.beta * scene.media[p.medium as usize].sigma_s(p.p)
+                        })
+                    }
+                    VolumeEstimate::Point => volume_points.build(&photons.volume, r_vol as f32),
+                }
+                t1 = Instant::now();
+                let camera = CameraPass {
+                    seed: settings.seed,
+                    iteration: i,
+                    max_depth: settings.max_depth,
+                    surface: Gather {
+                        radius: r as f32,
+                        kernel: settings.kernel,
+                        inv_paths: 1.0 / settings.photons as f32,
+                    },
+                    volume: Gather {
+                        radius: r_vol as f32,
+                        kernel: settings.kernel,
+                        inv_paths: 1.0 / settings.photons as f32,
+                    },
+                    estimate: settings.volume_estimate,
+                };
+                let maps = Maps {
+                    surface: &surface_map,
+                    volume_points: &volume_points,
+                    volume_beams: &volume_beams,
+                };
+                if !render_pass(scene, &maps, &camera, stop, &nonfinite, &mut image) {
+                    break;
+                }
+            }
+            Integrator::Path => {
+                t1 = t0;
+                let pass =
+                    PathPass { seed: settings.seed, iteration: i, max_depth: settings.max_depth };
+                if !path::render_pass(scene, &lights, &pass, stop, &nonfinite, &mut image) {
+                    break;
+                }
+            }
         }
         let t2 = Instant::now();
         film.add(&image);
         iteration = i;
-        light_paths += settings.photons;
+        if settings.integrator == Integrator::PhotonMapping {
+            light_paths += settings.photons;
+        }
         let info = RenderInfo {
             iterations: iteration,
             light_paths,
@@ -120,6 +138,7 @@ pub fn render(
             volume_alpha: settings.volume_alpha,
             volume_dimension: settings.volume_dimension,
             volume_estimate: settings.volume_estimate,
+            integrator: settings.integrator,
             kernel: settings.kernel,
             seed: settings.seed,
             elapsed: start.elapsed().as_secs_f64(),
@@ -149,6 +168,7 @@ pub fn render(
         volume_alpha: settings.volume_alpha,
         volume_dimension: settings.volume_dimension,
         volume_estimate: settings.volume_estimate,
+        integrator: settings.integrator,
         kernel: settings.kernel,
         seed: settings.seed,
         elapsed: 0.0,

@@ -68,6 +68,7 @@ pub struct RenderDef {
     pub volume_radius: Option<f64>,
     pub volume_radius_fraction: Option<f64>,
     pub volume_dimension: Option<u32>,
+    pub integrator: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]

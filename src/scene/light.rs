@@ -61,7 +61,7 @@ impl Emitter {
     }
 
     /// Uniform point by area: position and outward normal.
-    fn sample(&self, u_pick: f32, u: Vec2) -> (Vec3, Vec3) {
+    pub fn sample_point(&self, u_pick: f32, u: Vec2) -> (Vec3, Vec3) {
         match self {
             Emitter::Triangles { triangles, cdf } => {
                 let target = u_pick * self.area();
@@ -178,7 +178,7 @@ impl Light {
                 Emission { p, d: *direction, n: Vec3::ZERO, beta: self.power() }
             }
             Light::Area { emitter, .. } => {
-                let (p, n) = emitter.sample(u_pick, u_pos);
+                let (p, n) = emitter.sample_point(u_pick, u_pos);
                 let d = Frame::new(n).to_world(sample_cosine_hemisphere(u_dir));
                 Emission { p, d, n, beta: self.power() }
             }

@@ -379,6 +379,10 @@ fn settings(def: Option<&RenderDef>, places: &Places) -> Result<RenderSettings> 
         s.volume_radius = Radius::Fraction(f);
     }
     s.volume_dimension = d.volume_dimension.unwrap_or(s.volume_dimension);
+    if let Some(i) = &d.integrator {
+        s.integrator =
+            i.parse().map_err(|m: String| places.error("render.integrator".into(), m))?;
+    }
     Ok(s)
 }
 

@@ -7,7 +7,8 @@
 //!
 //!   L = (ρ/π) · E₀ · (1 − ρ^D) / (1 − ρ).
 //!
-//! Bias: none for any radial kernel, because the area of a sphere within chord distance d of a
+//! The path tracer's next-event estimate adds ρ^(k−1)·(ρ/π)·E₀ at its k-th vertex, k ≤ D: the same
+//! sum. Bias: none for the path tracer, and none for photon mapping with any radial kernel, because the area of a sphere within chord distance d of a
 //! point on it is exactly πd² (Archimedes' hat-box theorem), the same as on a plane; so only noise
 //! remains, and the test is a t-test over independent seeds at the suite's significance.
 
@@ -18,7 +19,7 @@ use haze::progress::Silent;
 use haze::scene::camera::{Camera, Projection};
 use haze::scene::material::Material;
 use haze::scene::{Geometry, LightDesc, SceneBuilder};
-use haze::settings::{Radius, RenderSettings};
+use haze::settings::{Integrator, Radius, RenderSettings};
 use std::f64::consts::PI;
 use std::sync::atomic::AtomicBool;
 
@@ -39,7 +40,12 @@ fn sphere_scene(albedo: f32, power: f32) -> haze::Scene {
 
 #[test]
 fn closed_diffuse_sphere_with_central_point_light() {
-    for (albedo, kernel) in [(0.5f32, Kernel::Epanechnikov), (0.8, Kernel::Constant)] {
+    for (albedo, kernel, integrator) in [
+        (0.5f32, Kernel::Epanechnikov, Integrator::PhotonMapping),
+        (0.8, Kernel::Constant, Integrator::PhotonMapping),
+        (0.5, Kernel::Epanechnikov, Integrator::Path),
+        (0.8, Kernel::Epanechnikov, Integrator::Path),
+    ] {
         let power = 4.0 * std::f32::consts::PI; // E₀ = 1 on the unit sphere
         let scene = sphere_scene(albedo, power);
         let depth = 12;
@@ -55,6 +61,7 @@ fn closed_diffuse_sphere_with_central_point_light() {
                     kernel,
                     max_depth: depth,
                     seed,
+                    integrator,
                     ..RenderSettings::default()
                 };
                 let image =
@@ -62,6 +69,7 @@ fn closed_diffuse_sphere_with_central_point_light() {
                 image.mean()
             })
             .collect();
-        assert_agrees(&format!("sphere ρ = {albedo}, {kernel:?}"), &estimates, reference, 0.0);
+        let what = format!("sphere ρ = {albedo}, {kernel:?}, {integrator:?}");
+        assert_agrees(&what, &estimates, reference, 0.0);
     }
 }
