@@ -13,9 +13,10 @@
 //! | root-level tiles are dropped | the voxels read (tiles included) must add up to the file's `file_voxel_count` |
 //! | truncated or corrupt files: errors or panics | errors are reported; any panic is caught and reported |
 //!
-//! Layout: a dense `Vec<f32>` over the bounding box of the active voxels (a few MB for the
-//! assets here). Dense was chosen over sparse bricks because lookups are then one index
-//! computation and eight loads, the assets are small, and the size is capped ([`MAX_VOXELS`]).
+//! Layout: a dense `Vec<f32>` over the bounding box of the active voxels, chosen by measurement
+//! (docs/performance.md): random trilinear lookups took 25 ns against 46–56 ns with 8³ bricks
+//! behind a dense brick table, while the bricks saved only 0.2–0.4 MB on the bundled grids.
+//! Bricks would pay off for large, sparse grids; the dense size is capped at [`MAX_VOXELS`].
 
 use crate::error::{Error, Result};
 use glam::{IVec3, Vec3};

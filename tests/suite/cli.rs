@@ -60,3 +60,43 @@ fn help_explains_the_options() {
         assert!(help.contains(flag), "--help lacks {flag}");
     }
 }
+
+#[test]
+fn ctrl_c_stops_cleanly_and_writes_the_image_so_far() {
+    let dir = temp_dir("cli-interrupt");
+    let out = dir.join("partial.exr");
+    let scene = scene_path("cornell-box.toml");
+    let child = Command::new(env!("CARGO_BIN_EXE_haze"))
+        .args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .args(["-n", "100000", "-p", "2000", "-q"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until iterations are certainly running (scene loading takes milliseconds).
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let killed = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    let output = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{err}");
+    assert!(err.contains("(interrupted)"), "{err}");
+    assert!(out.exists() && dir.join("partial.png").exists());
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        &out,
+        |_, _| (),
+        |_: &mut (), _, _: (f32, f32, f32, f32)| {},
+    )
+    .unwrap();
+    match image
+        .layer_data
+        .attributes
+        .other
+        .get(&exr::meta::attribute::Text::from("haze:iterations"))
+    {
+        Some(exr::meta::attribute::AttributeValue::Text(t)) => {
+            let n: u64 = t.to_string().parse().unwrap();
+            assert!(n > 0 && n < 100_000, "{n} iterations");
+        }
+        other => panic!("{other:?}"),
+    }
+}
