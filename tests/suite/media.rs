@@ -101,7 +101,7 @@ fn white_furnace_with_media_for_both_estimators() {
             (VolumeEstimate::Point, Integrator::PhotonMapping),
             (VolumeEstimate::Beam, Integrator::Path),
         ] {
-            let per_channel: Vec<[f64; 3]> = (0..8)
+            let per_channel: Vec<[f64; 3]> = (0..16)
                 .map(|seed| {
                     let mut settings = volume_settings(estimate, r, seed);
                     settings.integrator = integrator;
