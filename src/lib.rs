@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 pub mod accel;
+pub mod analytic;
 pub mod dda;
 pub mod error;
 pub mod estimate;
