@@ -20,8 +20,7 @@ use crate::scene::Scene;
 use crate::scene::light::Light;
 use crate::scene::material::{Material, Transport};
 use glam::{Vec2, Vec3};
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64};
 
 /// Settings of one path-tracing pass.
 #[derive(Clone, Copy, Debug)]
@@ -258,19 +257,7 @@ pub fn render_pass(
     image: &mut [Rgb],
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    image.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
-        if stop.load(Ordering::Relaxed) {
-            return;
-        }
-        for (x, px) in row.iter_mut().enumerate() {
-            let l = pixel_radiance(scene, lights, pass, x as u32, y as u32);
-            *px = if l.is_finite() {
-                l
-            } else {
-                nonfinite.fetch_add(1, Ordering::Relaxed);
-                Rgb::ZERO
-            };
-        }
-    });
-    !stop.load(Ordering::Relaxed)
+    super::render_rows(image, width, stop, nonfinite, |x, y| {
+        pixel_radiance(scene, lights, pass, x, y)
+    })
 }

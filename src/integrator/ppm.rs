@@ -53,6 +53,24 @@ pub fn render(
     let nonfinite = AtomicU64::new(0);
     let mut light_paths = 0u64;
     let mut last: Option<RenderInfo> = None;
+    let make_info = |iterations, light_paths, radius, volume_radius, elapsed| RenderInfo {
+        iterations,
+        light_paths,
+        initial_radius: r1,
+        radius,
+        alpha: settings.alpha,
+        volume_initial_radius: r1_vol,
+        volume_radius,
+        volume_alpha: settings.volume_alpha,
+        volume_dimension: settings.volume_dimension,
+        volume_estimate: settings.volume_estimate,
+        integrator: settings.integrator,
+        kernel: settings.kernel,
+        seed: settings.seed,
+        elapsed,
+        scene: scene.source.clone(),
+        nonfinite_samples: nonfinite.load(Ordering::Relaxed),
+    };
     let mut iteration = 0u64;
     loop {
         if settings.iterations.is_some_and(|n| iteration >= n)
@@ -127,24 +145,7 @@ pub fn render(
         if settings.integrator == Integrator::PhotonMapping {
             light_paths += settings.photons;
         }
-        let info = RenderInfo {
-            iterations: iteration,
-            light_paths,
-            initial_radius: r1,
-            radius: r,
-            alpha: settings.alpha,
-            volume_initial_radius: r1_vol,
-            volume_radius: r_vol,
-            volume_alpha: settings.volume_alpha,
-            volume_dimension: settings.volume_dimension,
-            volume_estimate: settings.volume_estimate,
-            integrator: settings.integrator,
-            kernel: settings.kernel,
-            seed: settings.seed,
-            elapsed: start.elapsed().as_secs_f64(),
-            scene: scene.source.clone(),
-            nonfinite_samples: nonfinite.load(Ordering::Relaxed),
-        };
+        let info = make_info(iteration, light_paths, r, r_vol, start.elapsed().as_secs_f64());
         progress.iteration(&Status {
             target_iterations: settings.iterations,
             time_limit: settings.time_limit,
@@ -157,24 +158,7 @@ pub fn render(
         });
         last = Some(info);
     }
-    let mut info = last.unwrap_or(RenderInfo {
-        iterations: 0,
-        light_paths: 0,
-        initial_radius: r1,
-        radius: r1,
-        alpha: settings.alpha,
-        volume_initial_radius: r1_vol,
-        volume_radius: r1_vol,
-        volume_alpha: settings.volume_alpha,
-        volume_dimension: settings.volume_dimension,
-        volume_estimate: settings.volume_estimate,
-        integrator: settings.integrator,
-        kernel: settings.kernel,
-        seed: settings.seed,
-        elapsed: 0.0,
-        scene: scene.source.clone(),
-        nonfinite_samples: 0,
-    });
+    let mut info = last.unwrap_or_else(|| make_info(0, 0, r1, r1_vol, 0.0));
     info.elapsed = start.elapsed().as_secs_f64();
     info.nonfinite_samples = nonfinite.load(Ordering::Relaxed);
     Ok(Image::from_film(&film, info))
