@@ -41,6 +41,7 @@ pub mod progress;
 pub mod rng;
 pub mod scene;
 pub mod settings;
+pub mod validate;
 
 pub use error::{Error, Result};
 pub use integrator::ppm::render;

@@ -27,6 +27,28 @@ enum Command {
     Render(RenderArgs),
     /// Measure photon-pass and camera-pass throughput on a scene.
     Bench(BenchArgs),
+    /// Render media with known answers (furnace, Beer–Lambert, half-space) with every method
+    /// and report agreement with the analytic references; exits 1 if a case fails.
+    Validate(ValidateArgs),
+}
+
+#[derive(Args)]
+struct ValidateArgs {
+    /// A short run (fewer seeds, iterations and photons).
+    #[arg(long)]
+    quick: bool,
+    /// Also write the table as Markdown to this file.
+    #[arg(long, value_name = "FILE")]
+    markdown: Option<PathBuf>,
+    /// Also write the table as CSV to this file.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Directory holding the OpenVDB assets (box.vdb, gradient.vdb).
+    #[arg(long, value_name = "DIR", default_value = "media")]
+    media: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(short = 'j', long, value_name = "T")]
+    threads: Option<usize>,
 }
 
 /// Options that override the scene file's [render] table.
@@ -363,11 +385,64 @@ fn bench(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+fn validate(args: ValidateArgs) -> Result<()> {
+    use haze::validate::{self, Effort};
+    if args.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    if !args.media.join("box.vdb").is_file() {
+        bail!(
+            "--media {}: box.vdb not found (run from the repository root or pass --media)",
+            args.media.display()
+        );
+    }
+    let effort = if args.quick { Effort::QUICK } else { Effort::FULL };
+    let pool = thread_pool(args.threads)?;
+    let bar = ProgressBar::new(0);
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} renders, ETA {eta}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let start = Instant::now();
+    let rows = pool.install(|| {
+        validate::run(&args.media, effort, |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        })
+    })?;
+    bar.finish_and_clear();
+    let table = validate::markdown(&rows);
+    println!("{table}");
+    println!(
+        "{} cases, {} seeds each, {} iterations x {} light paths per render; {} threads; {:.0} s",
+        rows.len(),
+        effort.seeds,
+        effort.iterations,
+        effort.photons,
+        pool.current_num_threads(),
+        start.elapsed().as_secs_f64()
+    );
+    if let Some(p) = &args.markdown {
+        std::fs::write(p, &table).with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    if let Some(p) = &args.csv {
+        std::fs::write(p, validate::csv(&rows))
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    let failed = rows.iter().filter(|r| !r.pass()).count();
+    if failed > 0 {
+        bail!("{failed} of {} cases disagree with their references", rows.len());
+    }
+    Ok(())
+}
+
 fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Render(a) => render(a),
         Command::Bench(a) => bench(a),
+        Command::Validate(a) => validate(a),
     }
 }
 

@@ -11,4 +11,5 @@ mod output;
 mod sampling;
 mod scenes;
 mod schedule;
+mod validation;
 mod vdb;

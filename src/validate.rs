@@ -1,0 +1,411 @@
+//! `haze validate`: renders media with known answers through the normal scene loader and
+//! integrators and compares them with the references of [`crate::analytic`].
+//!
+//! Every case is generated here as scene-file text and loaded with [`Scene::from_toml`], then
+//! rendered K times with independent seeds. The table reports the mean ± standard error over the
+//! seeds, the z-score, the relative error, and pass/fail of a two-sided t-test at significance
+//! [`SIGNIFICANCE`] after allowing the case's stated bias bound (the kernel estimates' boundary
+//! bias at the radius used; zero for the path tracer and wherever no boundary is near).
+//!
+//! Cases: the white furnace, Beer–Lambert transmittance through a homogeneous slab and through
+//! a linear-gradient grid, and the semi-infinite half-space (Chandrasekhar's H-function) — each
+//! with both medium kinds where a grid can stand in (a constant or gradient VDB), both volume
+//! estimators, and the reference path tracer.
+
+use crate::analytic::{HFunction, beer_lambert, half_space_reflectance, optical_depth_linear};
+use crate::error::Result;
+use crate::progress::Silent;
+use crate::scene::Scene;
+use crate::settings::{Integrator, VolumeEstimate};
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+/// Significance of each case's t-test.
+pub const SIGNIFICANCE: f64 = 1e-3;
+
+/// How thoroughly to validate.
+#[derive(Clone, Copy, Debug)]
+pub struct Effort {
+    /// Independent renders per case.
+    pub seeds: u64,
+    /// Iterations per render.
+    pub iterations: u64,
+    /// Light paths per iteration.
+    pub photons: u64,
+}
+
+impl Effort {
+    /// A short run (the test suite's; well under a minute on 2 cores).
+    pub const QUICK: Effort = Effort { seeds: 8, iterations: 4, photons: 50_000 };
+    /// The full run behind docs/validation.md.
+    pub const FULL: Effort = Effort { seeds: 16, iterations: 16, photons: 200_000 };
+}
+
+/// One result row.
+#[derive(Clone, Debug)]
+pub struct Row {
+    /// Case name.
+    pub case: String,
+    /// Medium kind: "homogeneous" or "vdb".
+    pub medium: &'static str,
+    /// "ppm/beam", "ppm/point" or "path".
+    pub method: &'static str,
+    /// Reference value.
+    pub reference: f64,
+    /// Mean over seeds.
+    pub mean: f64,
+    /// Standard error of the mean.
+    pub se: f64,
+    /// Stated bias bound.
+    pub bias: f64,
+    /// Two-sided critical t value used.
+    pub t_crit: f64,
+}
+
+impl Row {
+    /// (mean − reference) / se; `None` for a deterministic result (se = 0).
+    pub fn z(&self) -> Option<f64> {
+        (self.se > 0.0).then(|| (self.mean - self.reference) / self.se)
+    }
+
+    /// Relative error of the mean.
+    pub fn relative_error(&self) -> f64 {
+        (self.mean - self.reference) / self.reference
+    }
+
+    /// Does the mean agree with the reference within t·se plus the bias bound?
+    pub fn pass(&self) -> bool {
+        (self.mean - self.reference).abs() - self.bias <= self.t_crit * self.se
+    }
+}
+
+/// A generated case.
+struct Case {
+    name: String,
+    medium: &'static str,
+    toml: String,
+    reference: f64,
+    /// Bias bound of the kernel estimates as a function of the volume radius.
+    bias: Box<dyn Fn(f64) -> f64>,
+    /// Bias of the set-up itself (e.g. a finite block standing in for a half-space), for every
+    /// method.
+    setup_bias: f64,
+    volume_radius: f64,
+}
+
+fn toml_path(p: &Path) -> String {
+    p.display().to_string().replace('\\', "/")
+}
+
+/// Inward-facing emitting walls of the cube [-1, 1]³, with the fog on their front side.
+fn furnace_walls(le: f64) -> String {
+    let walls = [
+        ("[0, 0, 0]", "[0, 0, -1]"),
+        ("[0, 180, 0]", "[0, 0, 1]"),
+        ("[0, 90, 0]", "[-1, 0, 0]"),
+        ("[0, -90, 0]", "[1, 0, 0]"),
+        ("[-90, 0, 0]", "[0, -1, 0]"),
+        ("[90, 0, 0]", "[0, 1, 0]"),
+    ];
+    let mut s = String::from("[materials.black]\ntype = \"diffuse\"\nalbedo = 0\n");
+    for (rotate, at) in walls {
+        let _ = write!(
+            s,
+            "\n[[shapes]]\ntype = \"rectangle\"\nsize = [2, 2]\nmaterial = \"black\"\nemission = {le}\nexterior = \"fog\"\ntransform = {{ rotate = {rotate}, translate = {at} }}\n"
+        );
+    }
+    s
+}
+
+fn cases(media_dir: &Path) -> Vec<Case> {
+    let mut out = Vec::new();
+    let fov = 20.0f64;
+    let cos_max = ((fov.to_radians() / 2.0).tan() * 2f64.sqrt()).atan().cos();
+    // White furnace: camera at the centre of the cube, looking at a wall.
+    let camera = format!(
+        "[camera]\ntype = \"perspective\"\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = {fov}\nresolution = [8, 8]\nmedium = \"fog\"\n\n"
+    );
+    let sigma = 2.0;
+    let furnace_bias = move |r: f64| sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp();
+    out.push(Case {
+        name: "white furnace (σ_t 2, g 0.5)".into(),
+        medium: "homogeneous",
+        toml: format!(
+            "{camera}[media.fog]\ntype = \"homogeneous\"\nsigma_a = 0\nsigma_s = {sigma}\ng = 0.5\n\n{}",
+            furnace_walls(1.0)
+        ),
+        reference: 1.0,
+        bias: Box::new(furnace_bias),
+        setup_bias: 0.0,
+        volume_radius: 0.02,
+    });
+    // The same with a constant grid: box.vdb holds density 1 between its voxel centres, which a
+    // scale of 2/(15/16) and a shift of −1 map onto the cube.
+    out.push(Case {
+        name: "white furnace (σ_t 2, g 0.5)".into(),
+        medium: "vdb",
+        toml: format!(
+            "{camera}[media.fog]\ntype = \"vdb\"\nfile = \"{}\"\nsigma_a = 0\nsigma_s = {sigma}\ng = 0.5\ntransform = {{ scale = {}, translate = [-1, -1, -1] }}\n\n{}",
+            toml_path(&media_dir.join("box.vdb")),
+            2.0 / (15.0 / 16.0),
+            furnace_walls(1.0)
+        ),
+        reference: 1.0,
+        bias: Box::new(furnace_bias),
+        setup_bias: 0.0,
+        volume_radius: 0.02,
+    });
+    // Beer–Lambert through a homogeneous absorbing slab, seen orthographically.
+    let (thickness, sigma_a, le) = (1.2, 1.5, 2.0);
+    out.push(Case {
+        name: format!("Beer–Lambert slab (τ {:.2})", sigma_a * thickness),
+        medium: "homogeneous",
+        toml: format!(
+            "[camera]\ntype = \"orthographic\"\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nheight = 0.5\nresolution = [6, 6]\n\n[media.slab]\ntype = \"homogeneous\"\nsigma_a = {sigma_a}\nsigma_s = 0\n\n[materials.air]\ntype = \"interface\"\n\n[materials.black]\ntype = \"diffuse\"\nalbedo = 0\n\n[[shapes]]\ntype = \"box\"\nsize = [4, 4, {thickness}]\nmaterial = \"air\"\ninterior = \"slab\"\n\n[[shapes]]\ntype = \"rectangle\"\nsize = [4, 4]\nmaterial = \"black\"\nemission = {le}\ntransform = {{ translate = [0, 0, -1] }}\n"
+        ),
+        reference: le * beer_lambert(sigma_a, thickness),
+        // The ray offset at the slab's face shortens the path by ≤ 1e-5·(1 + |p|).
+        bias: Box::new(move |_| le * beer_lambert(sigma_a, thickness) * (sigma_a * 2e-5)),
+        setup_bias: 0.0,
+        volume_radius: 0.02,
+    });
+    // Beer–Lambert through the gradient grid: density x + 1/64 along x (see media/README.md),
+    // viewed along −x through x ∈ [0.1, 0.9], y, z ∈ [0.1, 0.4].
+    let (scale, sigma_t, a, b) = (2.0, 1.0, 0.1, 0.9);
+    let tau = optical_depth_linear(sigma_t * scale, 1.0, 1.0 / 64.0, a, b);
+    out.push(Case {
+        name: format!("Beer–Lambert gradient (τ {tau:.4})"),
+        medium: "vdb",
+        toml: format!(
+            "[camera]\ntype = \"orthographic\"\nposition = [3, 0.25, 0.25]\nlook_at = [0, 0.25, 0.25]\nheight = 0.2\nresolution = [6, 6]\n\n[media.grad]\ntype = \"vdb\"\nfile = \"{}\"\ndensity_scale = {scale}\nsigma_a = {sigma_t}\nsigma_s = 0\n\n[materials.air]\ntype = \"interface\"\n\n[materials.black]\ntype = \"diffuse\"\nalbedo = 0\n\n[[shapes]]\ntype = \"box\"\nsize = [{}, 0.3, 0.3]\nmaterial = \"air\"\ninterior = \"grad\"\ntransform = {{ translate = [{}, 0.25, 0.25] }}\n\n[[shapes]]\ntype = \"rectangle\"\nsize = [1, 1]\nmaterial = \"black\"\nemission = {le}\ntransform = {{ rotate = [0, 90, 0], translate = [-0.5, 0.25, 0.25] }}\n",
+            toml_path(&media_dir.join("gradient.vdb")),
+            b - a,
+            (a + b) / 2.0
+        ),
+        reference: le * (-tau).exp(),
+        bias: Box::new(move |_| le * (-tau).exp() * (sigma_t * scale * 2e-5)),
+        setup_bias: 0.0,
+        volume_radius: 0.02,
+    });
+    // The semi-infinite half-space: a 32 × 16 × 32 block (σ_t 1, albedo ω, isotropic) under
+    // collimated light at normal incidence. Uniform illumination makes the exitant radiance the
+    // same at every point far from the block's edges, so an orthographic camera averages the
+    // central 16 × 16 patch, 8 mean free paths from every edge.
+    for (omega, mu) in [(0.8f64, 1.0f64), (0.8, 0.6)] {
+        let Some(h) = HFunction::new(omega) else { continue };
+        let irradiance = 3.0;
+        let reference = irradiance * half_space_reflectance(&h, mu);
+        let sin = (1.0 - mu * mu).sqrt();
+        // Diffusion length of the medium: light entering beyond the block's edge is missing
+        // from the patch by at most e^{−8/L_D}.
+        let diffusion = 1.0 / (3.0 * (1.0 - omega)).sqrt();
+        let lateral = reference * (-8.0 / diffusion).exp();
+        out.push(Case {
+            name: format!("half-space ω {omega}, μ {mu}"),
+            medium: "homogeneous",
+            toml: format!(
+                "[camera]\ntype = \"orthographic\"\nposition = [{}, {}, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, -1]\nheight = {}\nresolution = [8, 8]\n\n[media.slab]\ntype = \"homogeneous\"\nalbedo = {omega}\nsigma_t = 1\n\n[materials.air]\ntype = \"interface\"\n\n[[shapes]]\ntype = \"box\"\nsize = [32, 16, 32]\nmaterial = \"air\"\ninterior = \"slab\"\ntransform = {{ translate = [0, -8, 0] }}\n\n[[lights]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = {irradiance}\n",
+                20.0 * sin,
+                20.0 * mu,
+                16.0 * mu
+            ),
+            reference,
+            // Kernel estimates near the surface: collisions within r of it (probability
+            // ≤ r/μ on an eye ray) may lose their whole kernel and carry up to twice the mean
+            // weight; the beam's cylinder pokes out over r·tan θ at the entry. Plus the lateral
+            // truncation, which the path tracer shares.
+            bias: Box::new(move |r| reference * (2.0 * r / mu + r * sin / mu)),
+            setup_bias: lateral,
+            volume_radius: 0.04,
+        });
+    }
+    out
+}
+
+/// Runs every case with every method; `progress(done, total)` after each render.
+pub fn run(
+    media_dir: &Path,
+    effort: Effort,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Vec<Row>> {
+    let methods: [(&'static str, Integrator, VolumeEstimate); 3] = [
+        ("ppm/beam", Integrator::PhotonMapping, VolumeEstimate::Beam),
+        ("ppm/point", Integrator::PhotonMapping, VolumeEstimate::Point),
+        ("path", Integrator::Path, VolumeEstimate::Beam),
+    ];
+    let media_dir = &std::fs::canonicalize(media_dir)
+        .map_err(|error| crate::Error::Io { path: media_dir.to_path_buf(), error })?;
+    let cases = cases(media_dir);
+    let total = cases.len() * methods.len() * effort.seeds as usize;
+    let mut done = 0;
+    let mut rows = Vec::new();
+    for case in &cases {
+        let scene =
+            Scene::from_toml(&case.toml, &PathBuf::from(format!("<{}>", case.name)), media_dir)?;
+        for (method, integrator, estimate) in methods {
+            let mut xs = Vec::new();
+            for seed in 0..effort.seeds {
+                let mut s = scene.settings.clone();
+                s.iterations = Some(effort.iterations);
+                s.time_limit = None;
+                s.photons = effort.photons;
+                s.max_depth = 10_000;
+                s.integrator = integrator;
+                s.volume_estimate = estimate;
+                s.volume_radius = crate::settings::Radius::Absolute(case.volume_radius);
+                s.seed = 1000 + seed;
+                let image = crate::render(&scene, &s, &mut Silent, &AtomicBool::new(false))?;
+                xs.push(image.mean());
+                done += 1;
+                progress(done, total);
+            }
+            let n = xs.len() as f64;
+            let mean = xs.iter().sum::<f64>() / n;
+            let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            let bias = case.setup_bias
+                + match integrator {
+                    Integrator::Path => 0.0,
+                    Integrator::PhotonMapping => (case.bias)(case.volume_radius),
+                };
+            rows.push(Row {
+                case: case.name.clone(),
+                medium: case.medium,
+                method,
+                reference: case.reference,
+                mean,
+                se: (var / n).sqrt(),
+                bias,
+                t_crit: student_t_critical(xs.len() - 1, SIGNIFICANCE),
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// Two-sided critical value of Student's t with `dof` degrees of freedom (bisection on the CDF,
+/// computed from the regularised incomplete beta function by its continued fraction).
+pub fn student_t_critical(dof: usize, significance: f64) -> f64 {
+    let nu = dof as f64;
+    // P(|T| > t) = I_{ν/(ν+t²)}(ν/2, 1/2).
+    let tail = |t: f64| incomplete_beta(nu / (nu + t * t), nu / 2.0, 0.5);
+    let (mut lo, mut hi) = (0.0, 1e3);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if tail(mid) > significance { lo = mid } else { hi = mid }
+    }
+    0.5 * (lo + hi)
+}
+
+fn incomplete_beta(x: f64, a: f64, b: f64) -> f64 {
+    use crate::estimate::radius::ln_gamma;
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if x >= 1.0 {
+        return 1.0;
+    }
+    let front =
+        (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
+    if x < (a + 1.0) / (a + b + 2.0) {
+        front * beta_fraction(x, a, b) / a
+    } else {
+        1.0 - front * beta_fraction(1.0 - x, b, a) / b
+    }
+}
+
+/// Lentz's continued fraction for the incomplete beta function.
+fn beta_fraction(x: f64, a: f64, b: f64) -> f64 {
+    let tiny = 1e-300;
+    let (mut c, mut d) = (1.0, 1.0 - (a + b) * x / (a + 1.0));
+    if d.abs() < tiny {
+        d = tiny;
+    }
+    d = 1.0 / d;
+    let mut f = d;
+    for m in 1..300 {
+        let m = m as f64;
+        for num in [
+            m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m)),
+            -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0)),
+        ] {
+            d = 1.0 + num * d;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = 1.0 + num / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            f *= d * c;
+        }
+        if (d * c - 1.0).abs() < 1e-15 {
+            break;
+        }
+    }
+    f
+}
+
+/// The table as Markdown.
+pub fn markdown(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "| case | medium | method | reference | mean ± s.e. | z | rel. error | bias bound | t crit | result |\n|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.6} | {:.6} ± {:.6} | {} | {:+.3} % | {:.2e} | {:.2} | {} |",
+            r.case,
+            r.medium,
+            r.method,
+            r.reference,
+            r.mean,
+            r.se,
+            r.z().map_or("—".to_string(), |z| format!("{z:+.2}")),
+            100.0 * r.relative_error(),
+            r.bias,
+            r.t_crit,
+            if r.pass() { "pass" } else { "**FAIL**" }
+        );
+    }
+    s
+}
+
+/// The table as CSV.
+pub fn csv(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "case,medium,method,reference,mean,standard_error,z,relative_error,bias_bound,t_critical,pass\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "\"{}\",{},{},{},{},{},{},{},{},{},{}",
+            r.case,
+            r.medium,
+            r.method,
+            r.reference,
+            r.mean,
+            r.se,
+            r.z().map_or(String::new(), |z| z.to_string()),
+            r.relative_error(),
+            r.bias,
+            r.t_crit,
+            r.pass()
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn student_t_critical_values_match_tables() {
+        // Two-sided 0.1 %: ν = 5 → 6.869, ν = 11 → 4.437; 5 %: ν = 10 → 2.228.
+        assert!((student_t_critical(5, 1e-3) - 6.869).abs() < 2e-3);
+        assert!((student_t_critical(11, 1e-3) - 4.437).abs() < 2e-3);
+        assert!((student_t_critical(10, 0.05) - 2.228).abs() < 2e-3);
+    }
+}
