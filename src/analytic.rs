@@ -11,6 +11,9 @@
 //!   (Chandrasekhar, *Radiative Transfer*, 1950, ch. V), solved by haze itself; with it,
 //!   [`half_space_reflectance`] and [`half_space_albedo`] give the light reflected by a
 //!   semi-infinite, isotropically scattering half-space under collimated normal incidence.
+//! - [`PointSourceMedium`]: the fluence of an isotropic point source in an infinite medium with
+//!   isotropic scattering (all orders, or single scattering), and the radiance it sends along a
+//!   camera ray.
 
 /// Radiance inside a white furnace whose walls emit `le`: `le` itself.
 pub fn white_furnace(le: f64) -> f64 {
@@ -178,6 +181,89 @@ pub fn half_space_albedo(h: &HFunction) -> f64 {
 mod tests {
     use super::*;
 
+    /// Exponential integral E₁(x), x > 0 (series below 1, continued fraction above).
+    fn e1(x: f64) -> f64 {
+        if x < 1.0 {
+            let mut sum = 0.0;
+            let mut term = 1.0;
+            for k in 1..60 {
+                term *= -x / k as f64;
+                sum -= term / k as f64;
+            }
+            -0.577_215_664_901_532_9 - x.ln() + sum
+        } else {
+            // Lentz on E1(x) = e^{-x} / (x + 1 / (1 + 1 / (x + 2 / (1 + 2 / (x + …))))).
+            let (mut b, mut c, mut d) = (x + 1.0, 1e300, 1.0 / (x + 1.0));
+            let mut h = d;
+            for i in 1..200 {
+                let a = -(i as f64) * (i as f64);
+                b += 2.0;
+                d = 1.0 / (a * d + b);
+                c = b + a / c;
+                let del = c * d;
+                h *= del;
+                if (del - 1.0).abs() < 1e-15 {
+                    break;
+                }
+            }
+            h * (-x).exp()
+        }
+    }
+
+    #[test]
+    fn single_scattered_fluence_agrees_with_a_real_space_integral() {
+        // φ₁(r) = (ω / (2r)) ∫₀^∞ (e^{−r'}/(4π r')) [E₁(|r − r'|) − E₁(r + r')] dr', evaluated
+        // with substitutions that smooth the logarithmic singularity at r' = r.
+        use std::f64::consts::PI;
+        let (x, w) = gauss_legendre_unit(200);
+        for omega in [0.3, 0.9] {
+            let m = PointSourceMedium { omega };
+            for r in [0.5, 1.0, 2.0, 5.0] {
+                let f = |rp: f64| {
+                    (-rp).exp() / (4.0 * PI * rp) * (e1((r - rp).abs().max(1e-300)) - e1(r + rp))
+                };
+                // [0, r]: r' = r (1 − s²).
+                let a: f64 =
+                    x.iter().zip(&w).map(|(&s, &w)| w * f(r * (1.0 - s * s)) * 2.0 * r * s).sum();
+                // [r, r + 40]: r' = r + s², s ∈ [0, √40].
+                let sm = 40f64.sqrt();
+                let b: f64 = x
+                    .iter()
+                    .zip(&w)
+                    .map(|(&u, &w)| {
+                        let s = u * sm;
+                        w * sm * f(r + s * s) * 2.0 * s
+                    })
+                    .sum();
+                let direct = omega / (2.0 * r) * (a + b);
+                let fourier = m.scattered(Scattering::Single, r);
+                assert!(
+                    (fourier / direct - 1.0).abs() < 2e-3,
+                    "ω {omega}, r {r}: {fourier} vs {direct}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn multiply_scattered_fluence_exceeds_single_scattering() {
+        // All orders ≥ the first, and close to it in a nearly absorbing medium near the source.
+        for r in [0.5, 2.0, 6.0] {
+            let thin = PointSourceMedium { omega: 0.05 };
+            let (s, c) =
+                (thin.scattered(Scattering::Single, r), thin.scattered(Scattering::Collided, r));
+            assert!(c >= s, "r {r}: {c} vs {s}");
+            if r < 1.0 {
+                assert!(c / s - 1.0 < 0.05, "r {r}: {c} vs {s}");
+            }
+            let thick = PointSourceMedium { omega: 0.9 };
+            assert!(
+                thick.scattered(Scattering::Collided, r)
+                    > 1.5 * thick.scattered(Scattering::Single, r)
+            );
+        }
+    }
+
     #[test]
     fn gauss_legendre_integrates_polynomials_exactly() {
         let (x, w) = gauss_legendre_unit(16);
@@ -224,5 +310,108 @@ mod tests {
             let a = half_space_albedo(&h);
             assert!((flux - a).abs() < 1e-4, "ω = {omega}: {flux} vs {a}");
         }
+    }
+}
+
+/// Fluence around an isotropic point source of unit power in an infinite homogeneous medium with
+/// isotropic scattering, in units where σ_t = 1 (distances in mean free paths).
+///
+/// Method (haze's own): the Fourier transform of the fluence of a unit point source is
+/// F(k) = g(k) / (1 − ω g(k)), g(k) = arctan(k)/k (Case & Zweifel, *Linear Transport Theory*,
+/// 1967, §2.6); the uncollided part is g, the single-scattered part ω g². The radial inversion
+/// φ(r) = 1/(2π² r) ∫₀^∞ k sin(kr) F(k) dk converges slowly because F_c ~ ωπ²/(4k²); that tail is
+/// taken out as ωπ²/(4(k² + 1)), whose transform is (π/2) e^{−r} in closed form, and the rest, now
+/// decaying like k⁻³, is integrated numerically (Simpson, k ≤ 4000).
+#[derive(Clone, Copy, Debug)]
+pub struct PointSourceMedium {
+    /// Single-scattering albedo ω ∈ [0, 1).
+    pub omega: f64,
+}
+
+/// Which part of the fluence.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scattering {
+    /// Light that scattered exactly once.
+    Single,
+    /// Light that scattered any number of times (≥ 1).
+    Collided,
+}
+
+impl PointSourceMedium {
+    fn g(k: f64) -> f64 {
+        if k < 1e-4 { 1.0 - k * k / 3.0 } else { k.atan() / k }
+    }
+
+    /// Transform of the part `which`, minus its k⁻² tail ωπ²/(4(k² + 1)).
+    fn remainder(&self, which: Scattering, k: f64) -> f64 {
+        let g = Self::g(k);
+        let part = match which {
+            Scattering::Single => self.omega * g * g,
+            Scattering::Collided => self.omega * g * g / (1.0 - self.omega * g),
+        };
+        part - self.omega * std::f64::consts::PI.powi(2) / (4.0 * (k * k + 1.0))
+    }
+
+    /// Uncollided fluence e^{−r}/(4π r²).
+    pub fn uncollided(&self, r: f64) -> f64 {
+        (-r).exp() / (4.0 * std::f64::consts::PI * r * r)
+    }
+
+    /// Scattered fluence (single or all orders) at distance r > 0.
+    pub fn scattered(&self, which: Scattering, r: f64) -> f64 {
+        use std::f64::consts::PI;
+        let k_max = 4000.0;
+        // Enough Simpson intervals for sin(kr) (≥ 24 per period) and for the kernel near 0.
+        let n = (((k_max * r / (2.0 * PI)) * 24.0).max(20_000.0) as usize) & !1;
+        let h = k_max / n as f64;
+        let f = |k: f64| k * (k * r).sin() * self.remainder(which, k);
+        let mut sum = f(0.0) + f(k_max);
+        for i in 1..n {
+            sum += f(i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+        }
+        let numeric = sum * h / 3.0;
+        let tail = self.omega * PI * PI / 4.0 * (PI / 2.0) * (-r).exp();
+        (numeric + tail) / (2.0 * PI * PI * r)
+    }
+
+    /// Radiance reaching a camera at distance `b` (mean free paths) from the source, looking
+    /// along a ray whose closest approach to the source is the camera itself (perpendicular to
+    /// the line to the source), for a source of unit power: ∫₀^∞ e^{−t} ω φ(√(b² + t²)) / (4π) dt,
+    /// with φ the fluence that has scattered once (`Single`: the single-scattered radiance) or the
+    /// total fluence (`Collided`: the full radiance, uncollided light included as the source of
+    /// the first scattering).
+    pub fn camera_radiance(&self, which: Scattering, b: f64) -> f64 {
+        use std::f64::consts::PI;
+        // φ on a grid of distances, then Simpson in t with linear interpolation in r.
+        let t_max = 40.0;
+        let n = 2000;
+        let h = t_max / n as f64;
+        let r_max = (b * b + t_max * t_max).sqrt();
+        let grid_n = 400;
+        let rs: Vec<f64> =
+            (0..=grid_n).map(|i| b + (r_max - b) * i as f64 / grid_n as f64).collect();
+        let phi: Vec<f64> = rs
+            .iter()
+            .map(|&r| match which {
+                Scattering::Single => self.uncollided(r),
+                Scattering::Collided => self.uncollided(r) + self.scattered(which, r),
+            })
+            .collect();
+        let lookup = |r: f64| {
+            let x = (r - b) / (r_max - b) * grid_n as f64;
+            let i = (x.floor() as usize).min(grid_n - 1);
+            let f = x - i as f64;
+            // Interpolate r²φ (smooth) rather than φ.
+            let a = phi[i] * rs[i] * rs[i];
+            let c = phi[i + 1] * rs[i + 1] * rs[i + 1];
+            (a + (c - a) * f) / (r * r)
+        };
+        let integrand =
+            |t: f64| (-t).exp() * self.omega * lookup((b * b + t * t).sqrt()) / (4.0 * PI);
+        let mut sum = integrand(0.0) + integrand(t_max);
+        for i in 1..n {
+            sum += integrand(i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+        }
+        sum * h / 3.0
     }
 }

@@ -8,11 +8,15 @@
 //! bias at the radius used; zero for the path tracer and wherever no boundary is near).
 //!
 //! Cases: the white furnace, Beer–Lambert transmittance through a homogeneous slab and through
-//! a linear-gradient grid, and the semi-infinite half-space (Chandrasekhar's H-function) — each
-//! with both medium kinds where a grid can stand in (a constant or gradient VDB), both volume
-//! estimators, and the reference path tracer.
+//! a linear-gradient grid, the semi-infinite half-space (Chandrasekhar's H-function), and an
+//! isotropic point source in an infinite medium (single-scattered and full radiance from the
+//! Green's function) — with both medium kinds where a grid can stand in (a constant or gradient
+//! VDB), both volume estimators, and the reference path tracer.
 
-use crate::analytic::{HFunction, beer_lambert, half_space_reflectance, optical_depth_linear};
+use crate::analytic::{
+    HFunction, PointSourceMedium, Scattering, beer_lambert, half_space_reflectance,
+    optical_depth_linear,
+};
 use crate::error::Result;
 use crate::progress::Silent;
 use crate::scene::Scene;
@@ -88,6 +92,8 @@ struct Case {
     reference: f64,
     /// Bias bound of the kernel estimates as a function of the volume radius.
     bias: Box<dyn Fn(f64) -> f64>,
+    /// Scattering events allowed on a path (1: single scattering only).
+    max_depth: u32,
     /// Bias of the set-up itself (e.g. a finite block standing in for a half-space), for every
     /// method.
     setup_bias: f64,
@@ -138,6 +144,7 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         reference: 1.0,
         bias: Box::new(furnace_bias),
         setup_bias: 0.0,
+        max_depth: 10_000,
         volume_radius: 0.02,
     });
     // The same with a constant grid: box.vdb holds density 1 between its voxel centres, which a
@@ -154,6 +161,7 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         reference: 1.0,
         bias: Box::new(furnace_bias),
         setup_bias: 0.0,
+        max_depth: 10_000,
         volume_radius: 0.02,
     });
     // Beer–Lambert through a homogeneous absorbing slab, seen orthographically.
@@ -168,6 +176,7 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         // The ray offset at the slab's face shortens the path by ≤ 1e-5·(1 + |p|).
         bias: Box::new(move |_| le * beer_lambert(sigma_a, thickness) * (sigma_a * 2e-5)),
         setup_bias: 0.0,
+        max_depth: 10_000,
         volume_radius: 0.02,
     });
     // Beer–Lambert through the gradient grid: density x + 1/64 along x (see media/README.md),
@@ -186,6 +195,7 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         reference: le * (-tau).exp(),
         bias: Box::new(move |_| le * (-tau).exp() * (sigma_t * scale * 2e-5)),
         setup_bias: 0.0,
+        max_depth: 10_000,
         volume_radius: 0.02,
     });
     // The semi-infinite half-space: a 32 × 16 × 32 block (σ_t 1, albedo ω, isotropic) under
@@ -217,7 +227,36 @@ fn cases(media_dir: &Path) -> Vec<Case> {
             // truncation, which the path tracer shares.
             bias: Box::new(move |r| reference * (2.0 * r / mu + r * sin / mu)),
             setup_bias: lateral,
+            max_depth: 10_000,
             volume_radius: 0.04,
+        });
+    }
+    // An isotropic point source of power Φ in an infinite medium (σ_t 1, albedo ω, isotropic),
+    // seen by a thin orthographic camera 1 mean free path away, looking perpendicular to the line
+    // to the source; references from the Fourier-space Green's function (`PointSourceMedium`).
+    // Paths limited to one scattering event render the single-scattered part alone.
+    let (omega, power, b) = (0.5, 100.0, 1.0);
+    let medium = PointSourceMedium { omega };
+    for (which, max_depth, label) in [
+        (Scattering::Single, 1u32, "single scattering"),
+        (Scattering::Collided, 10_000, "all orders"),
+    ] {
+        let reference = power * medium.camera_radiance(which, b);
+        out.push(Case {
+            name: format!("point source in infinite medium, ω {omega}, {label}"),
+            medium: "homogeneous",
+            toml: format!(
+                "[camera]\ntype = \"orthographic\"\nposition = [0, {b}, 0]\nlook_at = [1, {b}, 0]\nheight = 0.01\nresolution = [4, 4]\nmedium = \"fog\"\n\n[media.fog]\ntype = \"homogeneous\"\nalbedo = {omega}\nsigma_t = 1\n\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 0]\npower = {power}\nmedium = \"fog\"\n"
+            ),
+            reference,
+            // Kernel smoothing of a field whose points lie ≥ 1 mean free path from the source:
+            // relative bias ≤ (r²/2)·(1/6)·|∇²L/L| with |∇²L/L| ≤ 2/d² + 2/d + 1 ≤ 5.
+            bias: Box::new(move |r| reference * 5.0 * r * r / 12.0),
+            // The camera's 0.01 × 0.01 footprint averages rays around the reference ray: a
+            // second-order effect, below 10⁻⁴ of the radiance.
+            setup_bias: reference * 1e-4,
+            max_depth,
+            volume_radius: 0.05,
         });
     }
     out
@@ -250,7 +289,7 @@ pub fn run(
                 s.iterations = Some(effort.iterations);
                 s.time_limit = None;
                 s.photons = effort.photons;
-                s.max_depth = 10_000;
+                s.max_depth = case.max_depth;
                 s.integrator = integrator;
                 s.volume_estimate = estimate;
                 s.volume_radius = crate::settings::Radius::Absolute(case.volume_radius);

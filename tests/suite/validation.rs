@@ -8,7 +8,7 @@ use std::path::Path;
 fn quick_validation_passes_every_case() {
     let media = Path::new(env!("CARGO_MANIFEST_DIR")).join("media");
     let rows = haze::validate::run(&media, haze::validate::Effort::QUICK, |_, _| {}).unwrap();
-    assert_eq!(rows.len(), 18);
+    assert_eq!(rows.len(), 24);
     let failed: Vec<String> = rows
         .iter()
         .filter(|r| !r.pass())
@@ -16,5 +16,5 @@ fn quick_validation_passes_every_case() {
         .collect();
     assert!(failed.is_empty(), "{}", failed.join("\n"));
     assert!(haze::validate::markdown(&rows).contains("| pass |"));
-    assert_eq!(haze::validate::csv(&rows).lines().count(), 19);
+    assert_eq!(haze::validate::csv(&rows).lines().count(), 25);
 }
