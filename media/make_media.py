@@ -131,6 +131,13 @@ def main():
     set_voxels(b, (4, 4, 4), lambda i, j, k: 2.0)
     write("bad/duplicate.vdb", [a, b])
 
+    # Two voxels millions of voxels apart: a valid sparse grid far too large to copy densely.
+    g = grid()
+    acc = g.getAccessor()
+    acc.setValueOn((0, 0, 0), 1.0)
+    acc.setValueOn((4194303, 2097151, 2097151), 1.0)
+    write("bad/far-apart.vdb", [g])
+
     # A root-level tile (an active 4096^3 region stored as one value): vdb-rs drops it.
     g = grid(voxel=1.0 / 4096.0)
     g.fill((0, 0, 0), (4095, 4095, 4095), 0.25, True)

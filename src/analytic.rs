@@ -361,8 +361,11 @@ impl PointSourceMedium {
     pub fn scattered(&self, which: Scattering, r: f64) -> f64 {
         use std::f64::consts::PI;
         let k_max = 4000.0;
-        // Enough Simpson intervals for sin(kr) (≥ 24 per period) and for the kernel near 0.
-        let n = (((k_max * r / (2.0 * PI)) * 24.0).max(20_000.0) as usize) & !1;
+        // Enough Simpson intervals for sin(kr) (≥ 24 per period), and for the peak of the
+        // transform near k = 0, whose width is about √(3(1 − ω)) (≥ 20 steps across it).
+        let width = (3.0 * (1.0 - self.omega)).sqrt().max(1e-3);
+        let per_unit = (24.0 * r / (2.0 * PI)).max(20.0 / width).max(5.0);
+        let n = (((k_max * per_unit).min(4e7)) as usize + 1) & !1;
         let h = k_max / n as f64;
         let f = |k: f64| k * (k * r).sin() * self.remainder(which, k);
         let mut sum = f(0.0) + f(k_max);
@@ -380,8 +383,12 @@ impl PointSourceMedium {
     /// with φ the fluence that has scattered once (`Single`: the single-scattered radiance) or the
     /// total fluence (`Collided`: the full radiance, uncollided light included as the source of
     /// the first scattering).
-    pub fn camera_radiance(&self, which: Scattering, b: f64) -> f64 {
+    /// `None` unless b > 0.
+    pub fn camera_radiance(&self, which: Scattering, b: f64) -> Option<f64> {
         use std::f64::consts::PI;
+        if !(b > 0.0 && b.is_finite()) {
+            return None;
+        }
         // φ on a grid of distances, then Simpson in t with linear interpolation in r.
         let t_max = 40.0;
         let n = 2000;
@@ -412,6 +419,6 @@ impl PointSourceMedium {
         for i in 1..n {
             sum += integrand(i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
         }
-        sum * h / 3.0
+        Some(sum * h / 3.0)
     }
 }

@@ -221,7 +221,12 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
             }
             o = offset_origin(hit.p, hit.ng, bs.wi);
             d = bs.wi;
-            count_emission = true;
+            // After a mirror or glass bounce next-event estimation could not have found the
+            // emitter, so count it when hit; a pass-through interface changes nothing (shadow
+            // rays pass through it), so the previous decision stands.
+            if *material != Material::Interface {
+                count_emission = true;
+            }
         }
         if !roulette(&mut beta, depth, &mut s) {
             break;

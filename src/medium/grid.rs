@@ -149,7 +149,7 @@ impl DensityGrid {
         if gd.grid_pos >= end {
             return Err(err(format!("grid `{name}`: corrupt grid offsets")));
         }
-        let mut head = vec![0u8; (end - gd.grid_pos).min(1 << 20) as usize];
+        let mut head = vec![0u8; (end - gd.grid_pos).min(64 << 20) as usize];
         {
             let mut f = std::fs::File::open(path)
                 .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
@@ -214,14 +214,17 @@ impl DensityGrid {
         }
         let lo = items.iter().fold(IVec3::MAX, |a, (p, _, _)| a.min(*p));
         let hi = items.iter().fold(IVec3::MIN, |a, (p, e, _)| a.max(*p + IVec3::splat(*e - 1)));
-        let dims = hi - lo + IVec3::ONE;
-        let total = dims.x as u64 * dims.y as u64 * dims.z as u64;
-        if total > MAX_VOXELS {
+        // In 64 bits: far-apart voxels would overflow i32 extents and their u64 product.
+        let extent = (hi.as_i64vec3() - lo.as_i64vec3()) + glam::I64Vec3::ONE;
+        let total = (extent.x as u128) * (extent.y as u128) * (extent.z as u128);
+        if total > MAX_VOXELS as u128 {
             return Err(err(format!(
                 "grid `{name}` spans {}×{}×{} voxels, more than haze's dense limit of {MAX_VOXELS}",
-                dims.x, dims.y, dims.z
+                extent.x, extent.y, extent.z
             )));
         }
+        let dims = extent.as_ivec3();
+        let total = total as u64;
         let mut data = vec![0.0f32; total as usize];
         let mut max_density = 0.0f32;
         for (p, edge, v) in items {

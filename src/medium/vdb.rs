@@ -89,7 +89,8 @@ impl VdbMedium {
                 }
             }
         }
-        let sigma_t = (sigma_a + sigma_s).x;
+        // Grey by construction (checked when the scene is built); average away f32 rounding.
+        let sigma_t = (sigma_a + sigma_s).element_sum() / 3.0;
         Self { grid, to_index, sigma_a, sigma_s, sigma_t, phase, majorant, cells, lo }
     }
 

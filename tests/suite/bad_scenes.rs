@@ -234,6 +234,10 @@ fn bad_grid_media_name_the_key_and_the_volume_file() {
     expect_error(&vdb("nowhere.vdb", ""), &["media.cloud.file", "nowhere.vdb"]);
     expect_error(&vdb("cloud.vdb", "grid = \"smoke\"\n"), &["media.cloud.file", "smoke"]);
     expect_error(&vdb("cloud.vdb", "density_scale = -1\n"), &["media.cloud.density_scale"]);
+    // A coloured albedo with a grey extinction is fine, f32 rounding included.
+    let text = vdb("cloud.vdb", "")
+        .replace("sigma_a = 0.1\nsigma_s = 0.9", "albedo = [0.9, 0.5, 0.1]\nsigma_t = 3");
+    load(&text).unwrap();
     let text = vdb("cloud.vdb", "").replace("sigma_s = 0.9", "sigma_s = [0.9, 0.5, 0.9]");
     expect_error(&text, &["media.cloud.sigma_s", "same extinction"]);
 }

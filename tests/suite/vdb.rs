@@ -58,6 +58,7 @@ fn files_vdb_rs_would_crash_on_or_misread_are_clear_errors() {
     expect_error(&media("bad/affine.vdb"), "density", &["AffineMap"]);
     expect_error(&media("bad/duplicate.vdb"), "density", &["share the name"]);
     expect_error(&media("bad/root-tile.vdb"), "density", &["root-level tiles"]);
+    expect_error(&media("bad/far-apart.vdb"), "density", &["dense limit"]);
     expect_error(&media("box.vdb"), "smoke", &["no grid named `smoke`", "density"]);
     expect_error(&media("no-such-file.vdb"), "density", &["No such file"]);
 
