@@ -447,11 +447,14 @@ fn run() -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    // vdb-rs 0.6 panics on some corrupt files; the library catches those panics and returns an
-    // error, so keep the default hook from printing them as if the program had crashed.
+    // vdb-rs 0.6 panics on some corrupt files and obvhs on some degenerate geometry; the library
+    // catches those panics and returns an error, so keep the default hook from printing them as if
+    // the program had crashed.
     let default_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
-        let from_vdb_rs = info.location().is_some_and(|l| l.file().contains("vdb-rs"));
+        let from_vdb_rs = info
+            .location()
+            .is_some_and(|l| l.file().contains("vdb-rs") || l.file().contains("obvhs"));
         if !from_vdb_rs {
             default_hook(info);
         }

@@ -280,6 +280,9 @@ fn camera(def: &CameraDef, places: &Places) -> Result<Camera> {
         if !v.is_finite() {
             return Err(err(k, format!("must be finite, got {v}")));
         }
+        if v.abs().max_element() > super::MAX_COORDINATE {
+            return Err(err(k, format!("{v} lies outside ±{}", super::MAX_COORDINATE)));
+        }
     }
     let dist = (look_at - position).length();
     if dist == 0.0 {

@@ -218,8 +218,21 @@ fn check_color(key: String, c: Rgb, max: Option<f32>) -> Result<()> {
     Ok(())
 }
 
+/// Largest coordinate magnitude accepted: beyond it f32 positions are too coarse for ray offsets
+/// and the BVH's quantised boxes (obvhs asserts on such extents).
+pub const MAX_COORDINATE: f32 = 1e6;
+
 fn check_point(key: String, p: Vec3) -> Result<()> {
-    if p.is_finite() { Ok(()) } else { Err(invalid(key, format!("must be finite, got {p}"))) }
+    if !p.is_finite() {
+        return Err(invalid(key, format!("must be finite, got {p}")));
+    }
+    if p.abs().max_element() > MAX_COORDINATE {
+        return Err(invalid(
+            key,
+            format!("{p} lies outside haze's working range of ±{MAX_COORDINATE} scene units"),
+        ));
+    }
+    Ok(())
 }
 
 impl SceneBuilder {
@@ -364,6 +377,7 @@ impl SceneBuilder {
         match &geometry {
             Geometry::Sphere { center, radius } => {
                 check_point(format!("{label}.center"), *center)?;
+                check_point(format!("{label}.radius"), center.abs() + Vec3::splat(*radius))?;
                 if !(radius.is_finite() && *radius > 0.0) {
                     return Err(invalid(
                         format!("{label}.radius"),
@@ -376,8 +390,8 @@ impl SceneBuilder {
                     return Err(invalid(label, "mesh has no triangles"));
                 }
                 let n = mesh.positions.len();
-                if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
-                    return Err(invalid(format!("{label}.vertices[{i}]"), "must be finite"));
+                for (i, p) in mesh.positions.iter().enumerate() {
+                    check_point(format!("{label}.vertices[{i}] (after the transform)"), *p)?;
                 }
                 if let Some(t) =
                     mesh.triangles.iter().position(|t| t.iter().any(|&i| i as usize >= n))
@@ -508,7 +522,10 @@ impl SceneBuilder {
                 light_media.push(shape.media.and_then(|m| m.exterior));
             }
         }
-        let accel = Accel::build(&prims);
+        // obvhs asserts on some degenerate inputs; contain that rather than crash.
+        let accel = std::panic::catch_unwind(|| Accel::build(&prims)).map_err(|_| {
+            invalid("shapes".into(), "the geometry could not be organised into a BVH (degenerate?)")
+        })?;
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         for p in &prims {
