@@ -106,9 +106,7 @@ fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32)
             break;
         };
         beta *= bs.weight;
-        if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
-            medium = shape.medium_after(medium, bs.wi, hit.ng);
-        }
+        medium = shape.medium_after(medium, wo, bs.wi, hit.ng);
         o = offset_origin(hit.p, hit.ng, bs.wi);
         d = bs.wi;
     }

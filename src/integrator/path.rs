@@ -111,7 +111,7 @@ fn shadow(
         if scene.materials[shape.material as usize] != Material::Interface {
             return Rgb::ZERO;
         }
-        medium = shape.medium_after(medium, d, hit.ng);
+        medium = shape.medium_after(medium, -d, d, hit.ng);
         o = offset_origin(hit.p, hit.ng, d);
         left -= t;
         if left <= 0.0 {
@@ -216,9 +216,7 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
                 break;
             };
             beta *= bs.weight;
-            if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
-                medium = shape.medium_after(medium, bs.wi, hit.ng);
-            }
+            medium = shape.medium_after(medium, wo, bs.wi, hit.ng);
             o = offset_origin(hit.p, hit.ng, bs.wi);
             d = bs.wi;
             // After a mirror or glass bounce next-event estimation could not have found the

@@ -42,8 +42,8 @@ pub struct BeamMap {
     inv_cell: f32,
     radius: f32,
     lo: Vec3,
-    hi: Vec3,
     scratch: Vec<(u32, u32)>,
+    order: Vec<(u32, u32)>,
 }
 
 impl BeamMap {
@@ -84,7 +84,6 @@ impl BeamMap {
         weight: impl Fn(&VolumePhoton) -> crate::math::Rgb,
     ) {
         self.photons.clear();
-        self.photons.extend(photons.iter().map(|p| VolumePhoton { beta: weight(p), ..*p }));
         self.entry_x.clear();
         self.entry_y.clear();
         self.entry_z.clear();
@@ -97,8 +96,7 @@ impl BeamMap {
             .iter()
             .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.p), hi.max(p.p)));
         self.lo = lo - Vec3::splat(radius);
-        self.hi = hi + Vec3::splat(radius);
-        let extent = (self.hi - self.lo).max(Vec3::splat(1e-6));
+        let extent = (hi + Vec3::splat(radius) - self.lo).max(Vec3::splat(1e-6));
         // The photons' typical spacing, from the volume holding the central 90% of them along
         // each axis (a few stray photons far away must not make every cell huge).
         let mut coord: Vec<f32> = Vec::with_capacity(photons.len());
@@ -126,16 +124,20 @@ impl BeamMap {
         // Keep the photons in the order of the cells their centres lie in, so that the photons a
         // cell refers to sit together in memory. (cell, index) keys are unique: the order does
         // not depend on the thread count.
-        let mut order: Vec<(u32, u32)> = self
-            .photons
-            .iter()
-            .enumerate()
-            .map(|(i, p)| (self.index(self.cell_of(p.p)) as u32, i as u32))
-            .collect();
+        let mut order = std::mem::take(&mut self.order);
+        order.clear();
+        order.extend(
+            photons
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (self.index(self.cell_of(p.p)) as u32, i as u32)),
+        );
         order.par_sort_unstable();
-        let sorted: Vec<VolumePhoton> =
-            order.iter().map(|&(_, i)| self.photons[i as usize]).collect();
-        self.photons = sorted;
+        self.photons.extend(order.iter().map(|&(_, i)| {
+            let p = &photons[i as usize];
+            VolumePhoton { beta: weight(p), ..*p }
+        }));
+        self.order = order;
         let photons = &self.photons;
         for (i, ph) in photons.iter().enumerate() {
             let a = self.cell_of(ph.p - Vec3::splat(grow));
@@ -149,14 +151,7 @@ impl BeamMap {
             }
         }
         // Counting sort of the entries by cell (stable: photon order within a cell).
-        self.start.clear();
-        self.start.resize(cells + 1, 0);
-        for &(k, _) in &pairs {
-            self.start[k as usize + 1] += 1;
-        }
-        for k in 0..cells {
-            self.start[k + 1] += self.start[k];
-        }
+        super::bucket_starts(pairs.iter().map(|&(k, _)| k), cells, &mut self.start);
         for v in [&mut self.entry_x, &mut self.entry_y, &mut self.entry_z] {
             v.resize(pairs.len(), 0.0);
         }

@@ -59,14 +59,7 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
         keys.clear();
         keys.extend(photons.iter().map(|ph| self.bucket(self.cell_of(ph.position())) as u32));
         self.keys = keys;
-        self.start.clear();
-        self.start.resize(buckets + 1, 0);
-        for &k in &self.keys {
-            self.start[k as usize + 1] += 1;
-        }
-        for b in 0..buckets {
-            self.start[b + 1] += self.start[b];
-        }
+        super::bucket_starts(self.keys.iter().copied(), buckets, &mut self.start);
         self.photons.clear();
         self.photons.resize(photons.len(), P::default());
         // Scatter with a moving cursor per bucket (reuse `start` shifted by one slot).

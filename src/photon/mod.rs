@@ -44,6 +44,20 @@ pub struct VolumePhoton {
     pub medium: u32,
 }
 
+/// Counting-sort offsets: `start` becomes `buckets + 1` entries with `start[b]..start[b + 1]` the
+/// slots of bucket b, for items whose buckets are `keys` (in order, so a scatter with a cursor per
+/// bucket keeps the items' order within a bucket: the sort is stable and deterministic).
+pub(crate) fn bucket_starts(keys: impl Iterator<Item = u32>, buckets: usize, start: &mut Vec<u32>) {
+    start.clear();
+    start.resize(buckets + 1, 0);
+    for k in keys {
+        start[k as usize + 1] += 1;
+    }
+    for b in 0..buckets {
+        start[b + 1] += start[b];
+    }
+}
+
 /// Anything with a position, so the grid can hold surface and volume photons.
 pub trait Located {
     /// Position.

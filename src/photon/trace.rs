@@ -147,9 +147,7 @@ fn trace_path(
             return;
         };
         beta = b;
-        if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
-            medium = shape.medium_after(medium, bs.wi, hit.ng);
-        }
+        medium = shape.medium_after(medium, wo, bs.wi, hit.ng);
         o = offset_origin(hit.p, hit.ng, bs.wi);
         d = bs.wi;
     }

@@ -52,13 +52,15 @@ pub struct Shape {
 }
 
 impl Shape {
-    /// The medium a path is in after leaving this surface in direction `wi`, having been in
-    /// `current`.
+    /// The medium a path is in after a scattering event at this surface that turned direction
+    /// `wo` (pointing away from the surface, towards where the path came from) into `wi`, having
+    /// been in `current`: unchanged by a reflection or by a surface without media, the medium on
+    /// the far side after a transmission.
     #[inline]
-    pub fn medium_after(&self, current: Option<u32>, wi: Vec3, ng: Vec3) -> Option<u32> {
+    pub fn medium_after(&self, current: Option<u32>, wo: Vec3, wi: Vec3, ng: Vec3) -> Option<u32> {
         match &self.media {
-            Some(m) => m.side(wi, ng),
-            None => current,
+            Some(m) if wi.dot(ng) * wo.dot(ng) < 0.0 => m.side(wi, ng),
+            _ => current,
         }
     }
 }
