@@ -6,13 +6,19 @@
 //! collision in a medium, one light is chosen in proportion to its power and connected by a shadow
 //! ray; the shadow ray passes through pass-through interfaces (switching media and multiplying
 //! their transmittance: exact for homogeneous media, ratio tracking for grids) and is blocked by
-//! anything else. Emitters hit by the path count only after a specular bounce or straight from the
-//! camera, so nothing is counted twice and no multiple-importance weights are needed. The free-flight
+//! anything else. An area light reached by the path after a diffuse or phase-function scattering
+//! also counts, and the two ways of finding it are combined by multiple importance sampling (power
+//! heuristic over the solid-angle densities of light sampling and of BSDF/phase sampling; Veach
+//! 1997): light sampling alone makes collisions close to a large emitter — in a dense medium next
+//! to a glowing wall — rare and huge (the geometry term's 1/d²). Emitters seen straight from the
+//! camera or through a specular bounce count in full, and point, spot and directional lights only
+//! through next-event estimation. The free-flight
 //! weights follow the photon pass's convention (`Medium::sample_free_flight`), so path tracing
 //! and photon mapping estimate the same integral. Paths that see light only through specular
 //! chains from point-like lights (caustics) are not found by next-event estimation: that is the
 //! known weakness photon mapping is for.
 
+use crate::accel::Hit;
 use crate::math::{Frame, Rgb, offset_origin, sample_cosine_hemisphere};
 use crate::photon::trace::LightSampler;
 use crate::rng::{Purpose, Sampler};
@@ -40,6 +46,8 @@ struct LightSample {
     wi: Vec3,
     dist: f32,
     value: Rgb,
+    /// Solid-angle density of the sampled direction (area lights); `None` for delta lights.
+    pdf: Option<f32>,
 }
 
 fn sample_light(light: &Light, p: Vec3, s: &mut Sampler) -> Option<LightSample> {
@@ -49,7 +57,7 @@ fn sample_light(light: &Light, p: Vec3, s: &mut Sampler) -> Option<LightSample> 
             let d2 = v.length_squared();
             (d2 > 0.0).then(|| {
                 let dist = d2.sqrt();
-                LightSample { wi: v / dist, dist, value: *intensity / d2 }
+                LightSample { wi: v / dist, dist, value: *intensity / d2, pdf: None }
             })
         }
         Light::Spot { position, frame, .. } => {
@@ -61,11 +69,14 @@ fn sample_light(light: &Light, p: Vec3, s: &mut Sampler) -> Option<LightSample> 
             let dist = d2.sqrt();
             let wi = v / dist;
             let value = light.spot_intensity(frame.n.dot(-wi)) / d2;
-            Some(LightSample { wi, dist, value })
+            Some(LightSample { wi, dist, value, pdf: None })
         }
-        Light::Directional { direction, irradiance, .. } => {
-            Some(LightSample { wi: -*direction, dist: f32::INFINITY, value: *irradiance })
-        }
+        Light::Directional { direction, irradiance, .. } => Some(LightSample {
+            wi: -*direction,
+            dist: f32::INFINITY,
+            value: *irradiance,
+            pdf: None,
+        }),
         Light::Area { radiance, emitter, .. } => {
             let (q, n) = emitter.sample_point(s.next_f32(), s.next_2d());
             let v = q - p;
@@ -80,7 +91,13 @@ fn sample_light(light: &Light, p: Vec3, s: &mut Sampler) -> Option<LightSample> 
                 return None;
             }
             let dist = dist * (1.0 - 1e-4);
-            Some(LightSample { wi, dist, value: *radiance * (cos_l * emitter.area() / d2) })
+            let area = emitter.area();
+            Some(LightSample {
+                wi,
+                dist,
+                value: *radiance * (cos_l * area / d2),
+                pdf: Some(d2 / (cos_l * area)),
+            })
         }
     }
 }
@@ -121,7 +138,15 @@ fn shadow(
     Rgb::ZERO
 }
 
-/// Next-event estimate at `p`: `f(wi)` is the BSDF·cos or phase function towards `wi`.
+/// Power-heuristic weight of a strategy with density `a` against one with density `b`.
+#[inline]
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 && (a2 + b2).is_finite() { a2 / (a2 + b2) } else { 1.0 }
+}
+
+/// Next-event estimate at `p`: `f(wi)` is the BSDF·cos or phase function towards `wi`, and
+/// `pdf(wi)` the solid-angle density with which the path itself samples `wi` (for the MIS weight).
 fn next_event(
     scene: &Scene,
     lights: &LightSampler,
@@ -129,6 +154,7 @@ fn next_event(
     medium: Option<u32>,
     s: &mut Sampler,
     f: impl Fn(Vec3) -> Rgb,
+    pdf: impl Fn(Vec3) -> f32,
 ) -> Rgb {
     if lights.is_empty() {
         return Rgb::ZERO;
@@ -139,7 +165,33 @@ fn next_event(
     if fv.max_element() <= 0.0 || ls.value.max_element() <= 0.0 {
         return Rgb::ZERO;
     }
-    fv * ls.value * shadow(scene, p, ls.wi, ls.dist, medium, s) / p_light
+    let weight = ls.pdf.map_or(1.0, |p_l| power_heuristic(p_light * p_l, pdf(ls.wi)));
+    fv * ls.value * shadow(scene, p, ls.wi, ls.dist, medium, s) * (weight / p_light)
+}
+
+/// MIS weight of reaching an emitting shape at `hit` (seen from direction `wo`) by a direction
+/// sampled with density `pdf_dir` at `from`, against next-event estimation.
+fn emission_weight(
+    scene: &Scene,
+    lights: &LightSampler,
+    hit: &Hit,
+    wo: Vec3,
+    from: Vec3,
+    pdf_dir: f32,
+) -> f32 {
+    let (shape, q, ng) = (hit.tag, hit.p, hit.ng);
+    let Some((li, area)) = scene.lights.iter().enumerate().find_map(|(i, l)| match l {
+        Light::Area { shape: s, emitter, .. } if *s == shape => Some((i, emitter.area())),
+        _ => None,
+    }) else {
+        return 1.0;
+    };
+    let cos_l = wo.dot(ng).abs();
+    if cos_l <= 0.0 || area <= 0.0 {
+        return 1.0;
+    }
+    let p_l = lights.prob(li) * (q - from).length_squared() / (cos_l * area);
+    power_heuristic(pdf_dir, p_l)
 }
 
 /// Radiance along one path for pixel (x, y).
@@ -153,6 +205,9 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
     let mut beta = Rgb::ONE;
     let mut l = Rgb::ZERO;
     let mut count_emission = true;
+    // After a diffuse or phase-function scattering: where it happened and the density of the
+    // direction taken, for the MIS weight of an emitter the path reaches.
+    let mut scattered_from: Option<(Vec3, f32)> = None;
     for depth in 0..pass.max_depth {
         let hit = scene.intersect(o, d, f32::INFINITY);
         if let Some(id) = medium {
@@ -167,13 +222,21 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
                 let d_in = d;
                 l += beta
                     * sigma_s
-                    * next_event(scene, lights, x, medium, &mut s, |wi| {
-                        Rgb::splat(phase.eval(d_in, wi))
-                    });
+                    * next_event(
+                        scene,
+                        lights,
+                        x,
+                        medium,
+                        &mut s,
+                        |wi| Rgb::splat(phase.eval(d_in, wi)),
+                        |wi| phase.eval(d_in, wi),
+                    );
                 beta *= sigma_s;
-                d = phase.sample(d, s.next_2d()).d_out;
+                let ps = phase.sample(d, s.next_2d());
+                d = ps.d_out;
                 o = x;
                 count_emission = false;
+                scattered_from = Some((x, ps.value));
                 if !roulette(&mut beta, depth, &mut s) {
                     break;
                 }
@@ -187,8 +250,13 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
         let wo = -d;
         let shape = &scene.shapes[hit.tag as usize];
         if let Some(le) = shape.emission {
-            if count_emission && wo.dot(hit.ng) > 0.0 {
-                l += beta * le;
+            if wo.dot(hit.ng) > 0.0 {
+                if count_emission {
+                    l += beta * le;
+                } else if let Some((from, pdf_dir)) = scattered_from {
+                    let w = emission_weight(scene, lights, &hit, wo, from, pdf_dir);
+                    l += beta * le * w;
+                }
             }
         }
         let material = &scene.materials[shape.material as usize];
@@ -197,10 +265,23 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
             let ns = if hit.ns.dot(ng) >= 0.0 { hit.ns } else { -hit.ns };
             let f = material.diffuse_f();
             let p = offset_origin(hit.p, ng, ng);
+            let pdf = |wi: Vec3| {
+                if wi.dot(ng) <= 0.0 {
+                    0.0
+                } else {
+                    wi.dot(ns).max(0.0) * std::f32::consts::FRAC_1_PI
+                }
+            };
             l += beta
-                * next_event(scene, lights, p, medium, &mut s, |wi| {
-                    if wi.dot(ng) <= 0.0 { Rgb::ZERO } else { f * wi.dot(ns).max(0.0) }
-                });
+                * next_event(
+                    scene,
+                    lights,
+                    p,
+                    medium,
+                    &mut s,
+                    |wi| if wi.dot(ng) <= 0.0 { Rgb::ZERO } else { f * wi.dot(ns).max(0.0) },
+                    pdf,
+                );
             let wi = Frame::new(ns).to_world(sample_cosine_hemisphere(s.next_2d()));
             if wi.dot(ng) <= 0.0 {
                 break;
@@ -209,6 +290,7 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
             o = p;
             d = wi;
             count_emission = false;
+            scattered_from = Some((p, pdf(wi)));
         } else {
             let Some(bs) =
                 material.sample(wo, hit.ng, hit.ns, s.next_2d(), s.next_f32(), Transport::Radiance)
@@ -224,6 +306,7 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
             // rays pass through it), so the previous decision stands.
             if *material != Material::Interface {
                 count_emission = true;
+                scattered_from = None;
             }
         }
         if !roulette(&mut beta, depth, &mut s) {
@@ -233,16 +316,19 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
     l
 }
 
-/// Russian roulette from the fourth event on, survival min(0.95, max β).
+/// Russian roulette from the fourth event on, survival probability min(1, max β): a path whose
+/// throughput has not fallen is never killed. (An earlier cap of 0.95 killed paths in albedo-1
+/// media after ~20 events whatever their throughput; in optically thick media, where light needs
+/// thousands of events to escape, the survivors' weights 0.95^−k then made the estimate useless.)
 #[inline]
 fn roulette(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
     if beta.max_element() <= 0.0 {
         return false;
     }
-    if depth < 3 {
+    if depth < 3 || beta.max_element() >= 1.0 {
         return true;
     }
-    let q = beta.max_element().min(0.95);
+    let q = beta.max_element();
     if s.next_f32() >= q {
         return false;
     }

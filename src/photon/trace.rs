@@ -42,6 +42,12 @@ impl LightSampler {
         self.total <= 0.0
     }
 
+    /// The probability that [`Self::pick`] returns light `i`.
+    pub fn prob(&self, i: usize) -> f32 {
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        (self.cdf[i] - lo) / self.total
+    }
+
     /// A light index and its probability.
     pub fn pick(&self, u: f32) -> (usize, f32) {
         let target = u * self.total;
