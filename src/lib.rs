@@ -28,6 +28,8 @@
 
 pub mod accel;
 pub mod analytic;
+pub mod chart;
+pub mod converge;
 pub mod dda;
 pub mod error;
 pub mod estimate;

@@ -5,7 +5,7 @@ use clap::{Args, Parser, Subcommand};
 use haze::Scene;
 use haze::estimate::kernel::Kernel;
 use haze::progress::Status;
-use haze::settings::{Integrator, Radius, RenderSettings, VolumeEstimate};
+use haze::settings::{Integrator, Progression, Radius, RenderSettings, VolumeEstimate};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,6 +27,10 @@ enum Command {
     Render(RenderArgs),
     /// Measure photon-pass and camera-pass throughput on a scene.
     Bench(BenchArgs),
+    /// Chart error against time: render the scene while measuring its error against a reference
+    /// image at log-spaced iteration counts, for one or more series of settings; writes CSV, SVG
+    /// and PNG, and prints fitted and theoretical slopes.
+    Converge(ConvergeArgs),
     /// Render media with known answers (furnace, Beer–Lambert, half-space) with every method
     /// and report agreement with the analytic references; exits 1 if a case fails.
     Validate(ValidateArgs),
@@ -102,6 +106,53 @@ struct Overrides {
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(short = 'j', long, value_name = "T")]
     threads: Option<usize>,
+    /// Image size WIDTHxHEIGHT instead of the scene's (the field of view is kept).
+    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+    resolution: Option<[u32; 2]>,
+    /// Original PPM (per-pixel statistics, surfaces only) or probabilistic PPM.
+    #[arg(long, value_name = "KIND", value_parser = parse_progression)]
+    progression: Option<Progression>,
+    /// Thin volume photons in beam-grid cells holding more than B photons (unbiased).
+    #[arg(long, value_name = "B")]
+    beam_cell_budget: Option<u32>,
+}
+
+#[derive(Args)]
+#[command(allow_negative_numbers = true)]
+struct ConvergeArgs {
+    /// Scene file.
+    scene: PathBuf,
+    /// Reference image (OpenEXR at the render's resolution), e.g. from
+    /// `haze render SCENE --reference --integrator path -t 30m`.
+    #[arg(long, value_name = "REF.exr")]
+    reference: PathBuf,
+    // The time budget per run and series is --time (default 60 s); --iterations caps each run.
+    /// Independent runs per series (seeds S, S+1, …); their squared errors are averaged.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    runs: u32,
+    /// A named comparison: estimate, alpha, volume-alpha, kernel, dimension, photons,
+    /// progression or integrator (repeatable).
+    #[arg(long, value_name = "NAME")]
+    compare: Vec<String>,
+    /// A series LABEL:KEY=VALUE,… with keys of the scene's [render] table, e.g.
+    /// "alpha 0.5:alpha=0.5" (repeatable).
+    #[arg(long, value_name = "SPEC")]
+    series: Vec<String>,
+    /// Measure over the pixels X0,Y0,X1,Y1 only (X1, Y1 exclusive).
+    #[arg(long, value_name = "X0,Y0,X1,Y1")]
+    region: Option<haze::converge::Region>,
+    /// Output prefix: writes PREFIX.csv, PREFIX.svg, PREFIX.png and PREFIX.md
+    /// [default: converge-SCENE-NAME].
+    #[arg(short = 'o', long, value_name = "PREFIX")]
+    output: Option<PathBuf>,
+    /// Chart title [default: the scene's file name].
+    #[arg(long)]
+    title: Option<String>,
+    #[command(flatten)]
+    overrides: Overrides,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Args)]
@@ -120,6 +171,10 @@ struct RenderArgs {
     /// Exposure multiplier for the PNG preview (the EXR stays linear and unscaled).
     #[arg(long, default_value_t = 1.0, value_name = "E")]
     exposure: f32,
+    /// Write a reference for `haze converge`: the EXR gets a `haze:reference` attribute saying
+    /// how it was made and a `variance` layer (each pixel's variance of the mean).
+    #[arg(long)]
+    reference: bool,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -166,6 +221,30 @@ fn parse_integrator(s: &str) -> Result<Integrator, String> {
     s.parse()
 }
 
+fn parse_progression(s: &str) -> Result<Progression, String> {
+    s.parse()
+}
+
+fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
+    let bad = || format!("`{s}` is not a resolution WIDTHxHEIGHT such as 256x256");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) =
+        (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("resolution `{s}`: each side must lie in 1..=16384"));
+    }
+    Ok([w, h])
+}
+
+/// Loads the scene and applies the resolution override.
+fn load_scene(path: &std::path::Path, o: &Overrides) -> Result<Scene> {
+    let mut scene = Scene::load(path)?;
+    if let Some(r) = o.resolution {
+        scene.camera.resolution = r;
+    }
+    Ok(scene)
+}
+
 /// The scene's settings with the command-line overrides applied and validated.
 fn apply(base: &RenderSettings, o: &Overrides) -> Result<RenderSettings> {
     let mut s = base.clone();
@@ -202,6 +281,8 @@ fn apply(base: &RenderSettings, o: &Overrides) -> Result<RenderSettings> {
     }
     s.volume_dimension = o.volume_dimension.unwrap_or(s.volume_dimension);
     s.integrator = o.integrator.unwrap_or(s.integrator);
+    s.progression = o.progression.unwrap_or(s.progression);
+    s.beam_cell_budget = o.beam_cell_budget.or(s.beam_cell_budget);
     if let Err(e) = s.validate() {
         let flag = match e.key {
             "time_limit" => "time".to_string(),
@@ -236,7 +317,7 @@ fn stop_on_ctrl_c() -> Arc<AtomicBool> {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    let scene = Scene::load(&args.scene)?;
+    let scene = load_scene(&args.scene, &args.overrides)?;
     let settings = apply(&scene.settings, &args.overrides)?;
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         bail!("--exposure must be a positive number, got {}", args.exposure);
@@ -279,7 +360,11 @@ fn render(args: RenderArgs) -> Result<()> {
     if image.info.iterations == 0 {
         bail!("stopped before the first iteration finished; nothing written");
     }
-    let png = image.write(&output, args.exposure)?;
+    let png = if args.reference {
+        image.write_reference(&output, args.exposure)?
+    } else {
+        image.write(&output, args.exposure)?
+    };
     let i = &image.info;
     let interrupted = if stop.load(Ordering::Relaxed) { " (interrupted)" } else { "" };
     let work = match i.integrator {
@@ -333,7 +418,7 @@ fn update_bar(bar: &ProgressBar, s: &Status) {
 
 fn bench(args: BenchArgs) -> Result<()> {
     let path = args.scene.unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
-    let scene = Scene::load(&path)?;
+    let scene = load_scene(&path, &args.overrides)?;
     let mut o = args.overrides.clone();
     o.iterations = o.iterations.or(Some(8));
     let settings = apply(&scene.settings, &o)?;
@@ -382,6 +467,96 @@ fn bench(args: BenchArgs) -> Result<()> {
         pixels / camera_s,
         camera_s / timed as f64
     );
+    Ok(())
+}
+
+fn converge(args: ConvergeArgs) -> Result<()> {
+    use haze::converge::{self, Plan, Reference};
+    let scene = load_scene(&args.scene, &args.overrides)?;
+    let base = apply(&scene.settings, &args.overrides)?;
+    let reference = Reference::load(&args.reference)?;
+    let time = args.overrides.time.unwrap_or(60.0);
+    if args.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    let mut series = Vec::new();
+    for name in &args.compare {
+        series
+            .extend(converge::preset(name, &base).map_err(|e| anyhow::anyhow!("--compare: {e}"))?);
+    }
+    for spec in &args.series {
+        series.push(
+            converge::parse_series(spec, &base).map_err(|e| anyhow::anyhow!("--series: {e}"))?,
+        );
+    }
+    if series.is_empty() {
+        series.push(converge::Series { label: "scene settings".into(), settings: base.clone() });
+    }
+    for s in &series {
+        if let Err(e) = s.settings.validate() {
+            bail!("series `{}`: {}: {}", s.label, e.key, e.message);
+        }
+    }
+    let stem = args.scene.file_stem().unwrap_or("scene".as_ref()).to_string_lossy().to_string();
+    let prefix = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("converge-{stem}")));
+    if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            bail!("--output {}: directory {} does not exist", prefix.display(), dir.display());
+        }
+    }
+    let pool = thread_pool(args.overrides.threads)?;
+    let stop = stop_on_ctrl_c();
+    let plan = Plan {
+        seconds: time,
+        runs: args.runs,
+        max_iterations: args.overrides.iterations,
+        region: args.region,
+    };
+    let total = series.len() as f64 * args.runs as f64 * time;
+    let bar =
+        if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((total * 1000.0) as u64) };
+    if let Ok(style) = ProgressStyle::with_template("{elapsed_precise} [{bar:30}] ETA {eta} {msg}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let labels: Vec<String> = series.iter().map(|s| s.label.clone()).collect();
+    let runs = args.runs;
+    let mut on_progress = |si: usize, run: u32, seconds: f64| {
+        let done = (si as f64 * runs as f64 + run as f64) * time + seconds.min(time);
+        bar.set_position((done * 1000.0) as u64);
+        bar.set_message(format!("{} (run {}/{runs})", labels[si], run + 1));
+    };
+    let samples = pool
+        .install(|| converge::run(&scene, &series, &reference, &plan, &mut on_progress, &stop))?;
+    bar.finish_and_clear();
+    let summaries = converge::summarize(&scene, &series, &samples, args.runs);
+    let title = args.title.clone().unwrap_or_else(|| {
+        let [w, h] = scene.camera.resolution;
+        format!("{stem} ({w}x{h}), {} threads", pool.current_num_threads())
+    });
+    let chart = converge::chart(&title, &summaries);
+    let table = converge::markdown(&summaries);
+    let with = |ext: &str| PathBuf::from(format!("{}.{ext}", prefix.display()));
+    let write = |p: PathBuf, data: String| {
+        std::fs::write(&p, data).with_context(|| format!("cannot write {}", p.display()))
+    };
+    write(with("csv"), converge::csv(&series, &samples))?;
+    write(with("md"), table.clone())?;
+    chart.write_svg(&with("svg"))?;
+    chart.write_png(&with("png"))?;
+    println!("{table}");
+    println!(
+        "reference: {} ({}); {} run(s) of {:.0} s per series, {} threads",
+        args.reference.display(),
+        reference.description.as_deref().unwrap_or("no haze:reference attribute"),
+        args.runs,
+        time,
+        pool.current_num_threads()
+    );
+    println!("wrote {}.{{csv,md,svg,png}}", prefix.display());
+    if stop.load(Ordering::Relaxed) {
+        eprintln!("interrupted: the files hold the checkpoints reached so far");
+    }
     Ok(())
 }
 
@@ -443,6 +618,7 @@ fn run() -> Result<()> {
         Command::Render(a) => render(a),
         Command::Bench(a) => bench(a),
         Command::Validate(a) => validate(a),
+        Command::Converge(a) => converge(a),
     }
 }
 

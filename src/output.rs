@@ -31,6 +31,8 @@ pub struct RenderInfo {
     pub volume_estimate: crate::settings::VolumeEstimate,
     /// Integrator.
     pub integrator: crate::settings::Integrator,
+    /// Probabilistic or original progression.
+    pub progression: crate::settings::Progression,
     /// Kernel.
     pub kernel: Kernel,
     /// Seed.
@@ -52,6 +54,9 @@ pub struct Image {
     pub height: u32,
     /// Pixels.
     pub pixels: Vec<[f32; 3]>,
+    /// Each pixel's estimated variance of the mean over the iterations (see
+    /// [`Film::variance_of_mean`]); written only into reference files.
+    pub variance: Option<Vec<[f32; 3]>>,
     /// How it was made.
     pub info: RenderInfo,
 }
@@ -70,7 +75,13 @@ fn srgb8(v: f32) -> u8 {
 impl Image {
     /// The mean of a film's iterations.
     pub fn from_film(film: &Film, info: RenderInfo) -> Self {
-        Self { width: film.width(), height: film.height(), pixels: film.mean(), info }
+        Self {
+            width: film.width(),
+            height: film.height(),
+            pixels: film.mean(),
+            variance: Some(film.variance_of_mean()),
+            info,
+        }
     }
 
     /// Mean of every pixel and channel.
@@ -89,6 +100,40 @@ impl Image {
 
     /// Writes linear RGB f32 OpenEXR with the metadata as header attributes.
     pub fn write_exr(&self, path: &Path) -> Result<()> {
+        self.write_exr_with(path, false)
+    }
+
+    /// Writes the image as a reference for `haze converge`: the OpenEXR file of
+    /// [`Self::write_exr`] with the attribute `haze:reference` (saying how it was made) and a
+    /// second layer, `variance`, holding each pixel's estimated variance of the mean, which
+    /// `haze converge` subtracts from its squared errors. Also writes the PNG preview.
+    pub fn write_reference(&self, exr_path: &Path, exposure: f32) -> Result<PathBuf> {
+        self.write_exr_with(exr_path, true)?;
+        let png = exr_path.with_extension("png");
+        self.write_png(&png, exposure)?;
+        Ok(png)
+    }
+
+    /// How a reference was made, as its `haze:reference` attribute says.
+    pub fn reference_description(&self) -> String {
+        let i = &self.info;
+        let method = match i.integrator {
+            crate::settings::Integrator::Path => "path tracer (unbiased)".to_string(),
+            crate::settings::Integrator::PhotonMapping => format!(
+                "photon mapping ({} volume estimate, {} light paths, final radius {:.3e}, volume radius {:.3e}; consistent, not unbiased)",
+                i.volume_estimate.name(),
+                i.light_paths,
+                i.radius,
+                i.volume_radius
+            ),
+        };
+        format!(
+            "haze reference: {method}, {} iterations, seed {}, {:.0} s",
+            i.iterations, i.seed, i.elapsed
+        )
+    }
+
+    fn write_exr_with(&self, path: &Path, reference: bool) -> Result<()> {
         use exr::meta::attribute::{AttributeValue, Text};
         use exr::prelude::*;
         let w = self.width as usize;
@@ -115,6 +160,7 @@ impl Image {
         put("volumeEstimate", AttributeValue::Text(Text::from(info.volume_estimate.name())));
         put("kernel", AttributeValue::Text(Text::from(info.kernel.name())));
         put("integrator", AttributeValue::Text(Text::from(info.integrator.name())));
+        put("progression", AttributeValue::Text(Text::from(info.progression.name())));
         put("seed", AttributeValue::Text(Text::from(info.seed.to_string().as_str())));
         put("elapsedSeconds", AttributeValue::F64(info.elapsed));
         let scene = info.scene.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
@@ -122,13 +168,36 @@ impl Image {
         if let Some(t) = Text::new_or_none(scene.as_str()) {
             put("scene", AttributeValue::Text(t));
         }
-        let layer = Layer::new(
-            (self.width as usize, self.height as usize),
-            attrs,
-            Encoding::SMALL_LOSSLESS,
-            channels,
+        let size = (self.width as usize, self.height as usize);
+        if !reference {
+            let layer = Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels);
+            return Image::from_layer(layer).write().to_file(path).map_err(|e| out_err(path, e));
+        }
+        let description = self.reference_description();
+        attrs.other.insert(
+            Text::from("haze:reference"),
+            AttributeValue::Text(Text::new_or_none(description.as_str()).unwrap_or_default()),
         );
-        Image::from_layer(layer).write().to_file(path).map_err(|e| out_err(path, e))
+        let zero = vec![[0.0f32; 3]; self.pixels.len()];
+        let variance = self.variance.as_ref().unwrap_or(&zero);
+        let var_channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+            let [r, g, b] = variance[p.y() * w + p.x()];
+            (r, g, b)
+        });
+        let layer = Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels);
+        let var_layer = Layer::new(
+            size,
+            LayerAttributes::named("variance"),
+            Encoding::SMALL_LOSSLESS,
+            var_channels,
+        );
+        let bounds = exr::math::Vec2(size.0, size.1);
+        Image::empty(ImageAttributes::new(IntegerBounds::from_dimensions(bounds)))
+            .with_layer(layer)
+            .with_layer(var_layer)
+            .write()
+            .to_file(path)
+            .map_err(|e| out_err(path, e))
     }
 
     /// Writes an 8-bit sRGB PNG after scaling by `exposure` and clamping.

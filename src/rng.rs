@@ -16,6 +16,8 @@ pub enum Purpose {
     Camera = 2,
     /// Anything else (tests, benchmarks).
     Other = 3,
+    /// Russian-roulette thinning of dense photon cells.
+    Thinning = 4,
 }
 
 /// A portable seeded generator (xoshiro256++), with the float helpers the renderer needs.

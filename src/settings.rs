@@ -16,6 +16,8 @@
 //! volume_radius_fraction = 0.005  # initial volume radius (or `volume_radius`, absolute)
 //! volume_dimension = 3      # dimension d of the volume schedule (3; 2 for experiments)
 //! integrator = "ppm"        # "ppm" (photon mapping) or "path" (reference path tracer)
+//! progression = "probabilistic"  # or "original": Hachisuka 2008 per-pixel statistics (surfaces only)
+//! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
 //! ```
 
 use crate::estimate::kernel::Kernel;
@@ -55,6 +57,41 @@ impl std::str::FromStr for Integrator {
             "ppm" => Ok(Integrator::PhotonMapping),
             "path" => Ok(Integrator::Path),
             _ => Err(format!("unknown integrator `{s}`; expected \"ppm\" or \"path\"")),
+        }
+    }
+}
+
+/// How the radius shrinks from one iteration to the next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progression {
+    /// Probabilistic PPM (Knaus & Zwicker 2011): one global radius per iteration from the schedule,
+    /// the image is the mean of the iterations.
+    Probabilistic,
+    /// The original PPM (Hachisuka, Ogaki & Jensen 2008): every pixel keeps its own radius, photon
+    /// count and flux, updated after each photon pass. A comparison mode for the surface estimate:
+    /// scenes with media are refused.
+    Original,
+}
+
+impl Progression {
+    /// Name as written in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Progression::Probabilistic => "probabilistic",
+            Progression::Original => "original",
+        }
+    }
+}
+
+impl std::str::FromStr for Progression {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "probabilistic" => Ok(Progression::Probabilistic),
+            "original" => Ok(Progression::Original),
+            _ => Err(format!(
+                "unknown progression `{s}`; expected \"probabilistic\" or \"original\""
+            )),
         }
     }
 }
@@ -120,6 +157,12 @@ pub struct RenderSettings {
     pub volume_dimension: u32,
     /// The integrator.
     pub integrator: Integrator,
+    /// Probabilistic (global schedule) or original (per-pixel statistics) progression.
+    pub progression: Progression,
+    /// If set, volume photons in beam-grid cells holding more than this many photons are thinned
+    /// by Russian roulette (kept with probability budget/count, power divided by it), which bounds
+    /// the cost of a beam query where photons are dense without changing the expected image.
+    pub beam_cell_budget: Option<u32>,
 }
 
 /// Most light paths per iteration: each stores photons of 48 bytes, several per path.
@@ -144,6 +187,8 @@ impl Default for RenderSettings {
             volume_radius: Radius::Fraction(0.005),
             volume_dimension: 3,
             integrator: Integrator::PhotonMapping,
+            progression: Progression::Probabilistic,
+            beam_cell_budget: None,
         }
     }
 }
@@ -218,6 +263,46 @@ impl RenderSettings {
         }
         if self.max_depth == 0 {
             return err("max_depth", "must be at least 1");
+        }
+        if self.beam_cell_budget == Some(0) {
+            return err("beam_cell_budget", "must be at least 1 photon per cell");
+        }
+        if self.progression == Progression::Original && self.integrator == Integrator::Path {
+            return err(
+                "progression",
+                "\"original\" applies to photon mapping, not the path tracer",
+            );
+        }
+        Ok(())
+    }
+
+    /// Sets the `[render]` key `key` from its textual value (as on the command line or in a
+    /// `haze converge --series` list); the error says what was expected. Keys and values are those
+    /// of the scene file. The result is not validated as a whole: call [`Self::validate`].
+    pub fn set(&mut self, key: &str, value: &str) -> Result<(), String> {
+        fn num<T: std::str::FromStr>(key: &str, v: &str) -> Result<T, String> {
+            v.trim().parse().map_err(|_| format!("{key}: `{v}` is not a valid number"))
+        }
+        let v = value.trim();
+        match key {
+            "iterations" => self.iterations = Some(num(key, v)?),
+            "time_limit" => self.time_limit = Some(num(key, v)?),
+            "photons" => self.photons = num(key, v)?,
+            "alpha" => self.alpha = num(key, v)?,
+            "radius" => self.radius = Radius::Absolute(num(key, v)?),
+            "radius_fraction" => self.radius = Radius::Fraction(num(key, v)?),
+            "kernel" => self.kernel = v.parse()?,
+            "max_depth" => self.max_depth = num(key, v)?,
+            "seed" => self.seed = num(key, v)?,
+            "volume_estimate" => self.volume_estimate = v.parse()?,
+            "volume_alpha" => self.volume_alpha = num(key, v)?,
+            "volume_radius" => self.volume_radius = Radius::Absolute(num(key, v)?),
+            "volume_radius_fraction" => self.volume_radius = Radius::Fraction(num(key, v)?),
+            "volume_dimension" => self.volume_dimension = num(key, v)?,
+            "integrator" => self.integrator = v.parse()?,
+            "progression" => self.progression = v.parse()?,
+            "beam_cell_budget" => self.beam_cell_budget = Some(num(key, v)?),
+            _ => return Err(format!("unknown render setting `{key}`")),
         }
         Ok(())
     }

@@ -48,6 +48,22 @@ pub struct CameraPass {
 
 /// Radiance along one eye path for pixel (x, y).
 fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32) -> Rgb {
+    trace_eye(scene, maps, pass, x, y, |p, n, f, beta| {
+        beta * surface_radiance(maps.surface, p, n, f, &pass.surface)
+    })
+}
+
+/// Follows the eye path of pixel (x, y) and returns the radiance it collects, except that at the
+/// first diffuse surface (position p, normal n on the viewer's side, BRDF value f, path throughput
+/// β) the contribution is whatever `at_diffuse(p, n, f, β)` returns.
+pub(crate) fn trace_eye(
+    scene: &Scene,
+    maps: &Maps,
+    pass: &CameraPass,
+    x: u32,
+    y: u32,
+    mut at_diffuse: impl FnMut(glam::Vec3, glam::Vec3, Rgb, Rgb) -> Rgb,
+) -> Rgb {
     let width = scene.camera.resolution[0];
     let mut s = Sampler::new(pass.seed, Purpose::Camera, pass.iteration, (y * width + x) as u64);
     let pixel = Vec2::new(x as f32, y as f32) + s.next_2d();
@@ -97,7 +113,7 @@ fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32)
         if material.is_diffuse() {
             let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
             let f = material.diffuse_f();
-            l += beta * surface_radiance(maps.surface, hit.p, n, f, &pass.surface);
+            l += at_diffuse(hit.p, n, f, beta);
             break;
         }
         let Some(bs) =

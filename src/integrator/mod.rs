@@ -2,6 +2,7 @@
 //! the reference path tracer (`path`).
 
 pub mod camera;
+pub mod original;
 pub mod path;
 pub mod ppm;
 

@@ -5,6 +5,7 @@
 //! jittered eye path per pixel.
 
 use super::camera::{CameraPass, Maps, render_pass};
+use super::original::{OriginalState, gather_pass};
 use super::path::{self, PathPass};
 use crate::error::{Error, Result};
 use crate::estimate::radius::radius;
@@ -12,12 +13,12 @@ use crate::estimate::surface::Gather;
 use crate::film::Film;
 use crate::math::Rgb;
 use crate::output::{Image, RenderInfo};
-use crate::photon::beam::BeamMap;
+use crate::photon::beam::{BeamMap, Thinning};
 use crate::photon::map::PhotonGrid;
 use crate::photon::trace::{LightSampler, PhotonPass, Photons, trace_photons};
 use crate::progress::{Progress, Status};
 use crate::scene::Scene;
-use crate::settings::{Integrator, Radius, RenderSettings, VolumeEstimate};
+use crate::settings::{Integrator, Progression, Radius, RenderSettings, VolumeEstimate};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -39,6 +40,12 @@ pub fn render(
     stop: &AtomicBool,
 ) -> Result<Image> {
     settings.validate().map_err(|e| Error::Settings(format!("{}: {}", e.key, e.message)))?;
+    let original = settings.progression == Progression::Original;
+    if original && !scene.media.is_empty() {
+        return Err(Error::Settings(
+            "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")".into(),
+        ));
+    }
     let start = Instant::now();
     let [width, height] = scene.camera.resolution;
     let r1 = resolve_radius(scene, settings.radius);
@@ -52,6 +59,7 @@ pub fn render(
     let mut image = vec![Rgb::ZERO; (width * height) as usize];
     let nonfinite = AtomicU64::new(0);
     let mut light_paths = 0u64;
+    let mut pixel_stats = OriginalState::new((width * height) as usize, r1, settings.alpha);
     let mut last: Option<RenderInfo> = None;
     let make_info = |iterations, light_paths, radius, volume_radius, elapsed| RenderInfo {
         iterations,
@@ -65,6 +73,7 @@ pub fn render(
         volume_dimension: settings.volume_dimension,
         volume_estimate: settings.volume_estimate,
         integrator: settings.integrator,
+        progression: settings.progression,
         kernel: settings.kernel,
         seed: settings.seed,
         elapsed,
@@ -80,7 +89,7 @@ pub fn render(
             break;
         }
         let i = iteration + 1;
-        let r = radius(i, r1, settings.alpha, 2);
+        let r = if original { pixel_stats.rms_radius() } else { radius(i, r1, settings.alpha, 2) };
         let r_vol = radius(i, r1_vol, settings.volume_alpha, settings.volume_dimension);
         let t0 = Instant::now();
         let t1;
@@ -95,10 +104,17 @@ pub fn render(
                 if !trace_photons(scene, &lights, &pass, stop, &mut photons) {
                     break;
                 }
-                surface_map.build(&photons.surface, r as f32);
+                let r_build = if original { pixel_stats.max_radius() } else { r };
+                surface_map.build(&photons.surface, r_build as f32);
                 match settings.volume_estimate {
+                    _ if original => {}
                     VolumeEstimate::Beam => {
-                        volume_beams.build(&photons.volume, r_vol as f32, |p| {
+                        let thinning = settings.beam_cell_budget.map(|budget| Thinning {
+                            budget,
+                            seed: settings.seed,
+                            iteration: i,
+                        });
+                        volume_beams.build(&photons.volume, r_vol as f32, thinning, |p| {
                             p.beta * scene.media[p.medium as usize].sigma_s(p.p)
                         })
                     }
@@ -126,7 +142,17 @@ pub fn render(
                     volume_points: &volume_points,
                     volume_beams: &volume_beams,
                 };
-                if !render_pass(scene, &maps, &camera, stop, &nonfinite, &mut image) {
+                if original {
+                    let paths = light_paths + settings.photons;
+                    let mut next = OriginalState::new(0, r1, settings.alpha);
+                    next.pixels.clone_from(&pixel_stats.pixels);
+                    if !gather_pass(
+                        scene, &maps, &camera, &mut next, paths, stop, &nonfinite, &mut image,
+                    ) {
+                        break;
+                    }
+                    pixel_stats = next;
+                } else if !render_pass(scene, &maps, &camera, stop, &nonfinite, &mut image) {
                     break;
                 }
             }
@@ -140,7 +166,11 @@ pub fn render(
             }
         }
         let t2 = Instant::now();
-        film.add(&image);
+        if original {
+            film.replace(&image);
+        } else {
+            film.add(&image);
+        }
         iteration = i;
         if settings.integrator == Integrator::PhotonMapping {
             light_paths += settings.photons;

@@ -17,6 +17,7 @@
 //! between iterations.
 
 use super::VolumePhoton;
+use crate::rng::{Purpose, Sampler};
 use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -25,6 +26,27 @@ const PHOTONS_PER_CELL: f32 = 4.0;
 
 /// Most cells in the grid (4 bytes each in the cell table).
 const MAX_CELLS: f32 = (1 << 22) as f32;
+
+/// Russian-roulette thinning of dense photon cells, which bounds the cost of a beam query where
+/// photons crowd (near a light inside a medium, in a volumetric caustic) without changing the
+/// expected estimate.
+///
+/// A photon whose centre lies in a cell holding n > `budget` photons is kept with probability
+/// p = budget / n, and its power is divided by p. The decision uses a random number of its own,
+/// keyed by (seed, iteration, photon index), independent of everything else once the photons are
+/// placed; so, given the photons, its expected contribution to any query is exactly its
+/// contribution without thinning, and the estimate stays unbiased (its variance grows where photons
+/// were dropped). A cell then holds about `budget` photons of its own, and a query visits at most
+/// the photons entered from 27 such cells per cell.
+#[derive(Clone, Copy, Debug)]
+pub struct Thinning {
+    /// Photons a cell may hold before it is thinned.
+    pub budget: u32,
+    /// Render seed.
+    pub seed: u64,
+    /// Iteration (1-based).
+    pub iteration: u64,
+}
 
 /// The beam-query structure.
 #[derive(Default)]
@@ -81,6 +103,7 @@ impl BeamMap {
         &mut self,
         photons: &[VolumePhoton],
         radius: f32,
+        thinning: Option<Thinning>,
         weight: impl Fn(&VolumePhoton) -> crate::math::Rgb,
     ) {
         self.photons.clear();
@@ -133,10 +156,31 @@ impl BeamMap {
                 .map(|(i, p)| (self.index(self.cell_of(p.p)) as u32, i as u32)),
         );
         order.par_sort_unstable();
-        self.photons.extend(order.iter().map(|&(_, i)| {
-            let p = &photons[i as usize];
-            VolumePhoton { beta: weight(p), ..*p }
-        }));
+        match thinning {
+            None => self.photons.extend(order.iter().map(|&(_, i)| {
+                let p = &photons[i as usize];
+                VolumePhoton { beta: weight(p), ..*p }
+            })),
+            Some(t) => {
+                // `order` is sorted by cell: each run of equal keys is one cell's photons.
+                for run in order.chunk_by(|a, b| a.0 == b.0) {
+                    let n = run.len();
+                    let keep = (t.budget as f64 / n as f64).min(1.0);
+                    for &(_, i) in run {
+                        let p = &photons[i as usize];
+                        if keep < 1.0 {
+                            let u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64)
+                                .next_f32() as f64;
+                            if u >= keep {
+                                continue;
+                            }
+                        }
+                        let beta = weight(p) * (1.0 / keep) as f32;
+                        self.photons.push(VolumePhoton { beta, ..*p });
+                    }
+                }
+            }
+        }
         self.order = order;
         let photons = &self.photons;
         for (i, ph) in photons.iter().enumerate() {
@@ -237,7 +281,7 @@ mod tests {
             .collect();
         let mut map = BeamMap::new();
         for r in [0.003f32, 0.01, 0.05, 0.2] {
-            map.build(&photons, r, |p| p.beta);
+            map.build(&photons, r, None, |p| p.beta);
             for q in 0..60 {
                 let o = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 3.0 - 1.5;
                 let d = match q {

@@ -69,6 +69,8 @@ pub struct RenderDef {
     pub volume_radius_fraction: Option<f64>,
     pub volume_dimension: Option<u32>,
     pub integrator: Option<String>,
+    pub progression: Option<String>,
+    pub beam_cell_budget: Option<u32>,
 }
 
 #[derive(Debug, Deserialize)]

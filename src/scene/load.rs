@@ -386,6 +386,11 @@ fn settings(def: Option<&RenderDef>, places: &Places) -> Result<RenderSettings> 
         s.integrator =
             i.parse().map_err(|m: String| places.error("render.integrator".into(), m))?;
     }
+    if let Some(p) = &d.progression {
+        s.progression =
+            p.parse().map_err(|m: String| places.error("render.progression".into(), m))?;
+    }
+    s.beam_cell_budget = d.beam_cell_budget.or(s.beam_cell_budget);
     Ok(s)
 }
 

@@ -23,7 +23,7 @@ use haze::settings::{Integrator, Radius, RenderSettings};
 use std::f64::consts::PI;
 use std::sync::atomic::AtomicBool;
 
-fn sphere_scene(albedo: f32, power: f32) -> haze::Scene {
+pub(crate) fn sphere_scene(albedo: f32, power: f32) -> haze::Scene {
     let camera = Camera::new(
         Projection::Perspective { tan_half_fov: 0.6, lens_radius: 0.0, focus_distance: 1.0 },
         Vec3::new(0.1, -0.2, 0.05),

@@ -20,16 +20,21 @@ fn render(scene: &Scene, settings: &RenderSettings) -> Image {
     haze::render(scene, settings, &mut Silent, &AtomicBool::new(false)).unwrap()
 }
 
-fn homogeneous(sigma_a: Vec3, sigma_s: Vec3, g: f32) -> Medium {
+pub(crate) fn homogeneous(sigma_a: Vec3, sigma_s: Vec3, g: f32) -> Medium {
     Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase: HenyeyGreenstein { g } })
 }
 
 /// Half-angle of the furnace camera's view cone (diagonal), for the bias bound.
-const FURNACE_FOV_DEG: f32 = 20.0;
+pub(crate) const FURNACE_FOV_DEG: f32 = 20.0;
 
 /// A closed cube [-1, 1]³ of black, inward-facing walls emitting radiance `le`, filled with
 /// `medium`; the camera sits at the centre, in the medium, looking at the −z wall.
-fn furnace(le: Vec3, medium: Medium) -> Scene {
+pub(crate) fn furnace(le: Vec3, medium: Medium) -> Scene {
+    furnace_with_light(le, medium, None)
+}
+
+/// [`furnace`] with an extra light inside the medium.
+pub(crate) fn furnace_with_light(le: Vec3, medium: Medium, light: Option<LightDesc>) -> Scene {
     let tan = (FURNACE_FOV_DEG.to_radians() / 2.0).tan();
     let camera = Camera::new(
         Projection::Perspective { tan_half_fov: tan, lens_radius: 0.0, focus_distance: 1.0 },
@@ -54,12 +59,16 @@ fn furnace(le: Vec3, medium: Medium) -> Scene {
     for (rotate, at) in walls {
         let mesh = shape::rectangle(2.0, 2.0).transformed(&shape::affine(Vec3::ONE, rotate, at));
         let inside = MediumInterface { interior: None, exterior: Some(fog) };
-        b.shape_with_media(Geometry::Mesh(mesh), black, Some(le), Some(inside)).unwrap();
+        let emission = (le.max_element() > 0.0).then_some(le);
+        b.shape_with_media(Geometry::Mesh(mesh), black, emission, Some(inside)).unwrap();
+    }
+    if let Some(light) = light {
+        b.light_in(light, Some(fog)).unwrap();
     }
     b.build().unwrap()
 }
 
-fn volume_settings(estimate: VolumeEstimate, r: f64, seed: u64) -> RenderSettings {
+pub(crate) fn volume_settings(estimate: VolumeEstimate, r: f64, seed: u64) -> RenderSettings {
     RenderSettings {
         iterations: Some(4),
         photons: 10_000,

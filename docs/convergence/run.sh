@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Regenerates the charts and tables of docs/convergence.md and the time-to-error table of
+# docs/performance.md. Run from the repository root after `cargo build --release`; takes about
+# 45 minutes on 2 cores. References go to target/converge-refs (not committed).
+#
+# Every bundled scene is scaled down to a quarter of its resolution, with a sixteenth of its
+# photons per iteration (so the photon pass and the camera pass keep their balance); everything
+# else is the scene's own settings.
+set -euo pipefail
+HAZE=${HAZE:-target/release/haze}
+OUT=${OUT:-docs/convergence}
+REFS=${REFS:-target/converge-refs}
+REF_TIME=${REF_TIME:-150s}
+RUN_TIME=${RUN_TIME:-30s}
+CMP_TIME=${CMP_TIME:-20s}
+mkdir -p "$OUT" "$REFS"
+
+# scene, resolution, photons per iteration, integrator of the reference
+scenes=(
+  "cornell-box 96x96 12500 path"
+  "glass-caustic 120x80 18750 ppm"
+  "cornell-fog 96x96 12500 path"
+  "spotlight-fog 160x100 25000 path"
+  "cornell-cloud 96x96 12500 path"
+  "cornell-cloud-homogeneous 96x96 12500 path"
+  "vdb-cloud 160x100 25000 path"
+  "volumetric-caustic 250x141 12500 ppm"
+)
+
+for line in "${scenes[@]}"; do
+  read -r name res photons ref <<<"$line"
+  # The path tracer cannot see the caustics of a point light through glass (glass-caustic) and
+  # barely finds the small light behind the sphere (volumetric-caustic): those references are long
+  # photon-mapping runs with four times the photons.
+  if [ ! -f "$REFS/$name.exr" ]; then
+    "$HAZE" render "scenes/$name.toml" --resolution "$res" -p $((photons * 4)) \
+      --integrator "$ref" --seed 1000 -t "$REF_TIME" --reference -q -o "$REFS/$name.exr"
+  fi
+done
+
+for line in "${scenes[@]}"; do
+  read -r name res photons ref <<<"$line"
+  common=(--reference "$REFS/$name.exr" --resolution "$res" -p "$photons" -q)
+  if grep -q '^\[media' "scenes/$name.toml"; then
+    series=(--series "ppm beam:volume_estimate=beam" --series "ppm point:volume_estimate=point")
+  else
+    series=(--series "ppm:")
+  fi
+  "$HAZE" converge "scenes/$name.toml" "${common[@]}" -t "$RUN_TIME" "${series[@]}" \
+    --series "path:integrator=path" -o "$OUT/time-to-error-$name"
+done
+
+cmp() { # scene, output name, options...
+  local name=$1 out=$2
+  shift 2
+  local line res photons
+  for line in "${scenes[@]}"; do
+    read -r n r p _ <<<"$line"
+    if [ "$n" = "$name" ]; then res=$r; photons=$p; fi
+  done
+  "$HAZE" converge "scenes/$name.toml" --reference "$REFS/$name.exr" --resolution "$res" \
+    -p "$photons" -q "$@" -o "$OUT/$out"
+}
+cmp cornell-box alpha -t "$CMP_TIME" --compare alpha
+cmp cornell-box progression -t "$CMP_TIME" --compare progression
+cmp cornell-fog estimate -t "$CMP_TIME" --compare dimension --series "point:volume_estimate=point"
+cmp cornell-fog volume-alpha -t "$CMP_TIME" --compare volume-alpha
+cmp cornell-fog kernel -t "$CMP_TIME" --compare kernel
+cmp cornell-fog photons -t "$CMP_TIME" --compare photons
+cmp volumetric-caustic sds -t 60s --compare integrator
+cmp spotlight-fog thinning -t 30s --series "no thinning:" --series "beam_cell_budget 16:beam_cell_budget=16"

@@ -1,0 +1,414 @@
+//! Log-log line charts, written as SVG and as PNG from the same layout, for convergence plots.
+//!
+//! The chart is laid out once as a list of primitives (lines, markers, text) in pixel coordinates;
+//! [`Chart::svg`] writes them as SVG and [`Chart::png`] rasterises them with an 8×8 bitmap font
+//! (public-domain `font8x8` glyphs, drawn at twice their size), so the PNG needs no system fonts.
+
+use crate::error::{Error, Result};
+use font8x8::UnicodeFonts;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One series on a chart.
+#[derive(Clone, Debug)]
+pub struct Line {
+    /// Legend text.
+    pub label: String,
+    /// (x, y) points; points with a non-positive or non-finite coordinate are skipped.
+    pub points: Vec<(f64, f64)>,
+    /// Dashed and without markers (used for theory slopes).
+    pub dashed: bool,
+    /// Palette index; lines sharing it share a colour.
+    pub color: usize,
+}
+
+/// A log-log chart.
+#[derive(Clone, Debug, Default)]
+pub struct Chart {
+    /// Title above the plot.
+    pub title: String,
+    /// Horizontal axis label.
+    pub x_label: String,
+    /// Vertical axis label.
+    pub y_label: String,
+    /// The series.
+    pub lines: Vec<Line>,
+}
+
+const PALETTE: [[u8; 3]; 8] = [
+    [0x1f, 0x77, 0xb4],
+    [0xd6, 0x27, 0x28],
+    [0x2c, 0xa0, 0x2c],
+    [0xff, 0x7f, 0x0e],
+    [0x94, 0x67, 0xbd],
+    [0x8c, 0x56, 0x4b],
+    [0xe3, 0x77, 0xc2],
+    [0x17, 0xbe, 0xcf],
+];
+const BLACK: [u8; 3] = [0, 0, 0];
+const GRID: [u8; 3] = [0xdd, 0xdd, 0xdd];
+const WIDTH: f64 = 1200.0;
+const PLOT_H: f64 = 640.0;
+const LEFT: f64 = 110.0;
+const RIGHT: f64 = 30.0;
+const TOP: f64 = 50.0;
+const BOTTOM: f64 = 80.0;
+const LEGEND_ROW: f64 = 22.0;
+/// Glyph scale: font8x8 glyphs drawn 16 pixels high.
+const TEXT: f64 = 16.0;
+
+#[derive(Clone, Copy, PartialEq)]
+enum Anchor {
+    Start,
+    Middle,
+    End,
+}
+
+enum Prim {
+    Line { a: (f64, f64), b: (f64, f64), color: [u8; 3], width: f64, dashed: bool },
+    Marker { at: (f64, f64), color: [u8; 3] },
+    Text { at: (f64, f64), text: String, anchor: Anchor, vertical: bool },
+}
+
+/// Tick positions (values) and whether each is labelled, for a log axis spanning [lo, hi]
+/// (log10 values).
+fn ticks(lo: f64, hi: f64) -> Vec<(f64, bool)> {
+    let fine = hi - lo < 2.0;
+    let mut out = Vec::new();
+    for k in lo.floor() as i32..=hi.ceil() as i32 {
+        for m in [1.0, 2.0, 5.0] {
+            let v = m * 10f64.powi(k);
+            let l = v.log10();
+            if l >= lo - 1e-9 && l <= hi + 1e-9 && (m == 1.0 || fine) {
+                out.push((v, true));
+            } else if l >= lo && l <= hi {
+                out.push((v, false));
+            }
+        }
+    }
+    out
+}
+
+fn tick_label(v: f64) -> String {
+    if (1e-3..1e5).contains(&v) {
+        let s = format!("{v:.3}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        s.to_string()
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
+impl Chart {
+    fn height(&self) -> f64 {
+        PLOT_H + (self.lines.len() as f64) * LEGEND_ROW + 20.0
+    }
+
+    fn layout(&self) -> Vec<Prim> {
+        let mut prims = Vec::new();
+        let pts = |l: &Line| {
+            l.points
+                .iter()
+                .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+                .map(|&(x, y)| (x.log10(), y.log10()))
+                .collect::<Vec<_>>()
+        };
+        let all: Vec<(f64, f64)> = self.lines.iter().flat_map(pts).collect();
+        let (mut x0, mut x1, mut y0, mut y1) = all.iter().fold(
+            (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY),
+            |(a, b, c, d), &(x, y)| (a.min(x), b.max(x), c.min(y), d.max(y)),
+        );
+        if all.is_empty() {
+            (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+        }
+        let pad = |lo: f64, hi: f64| {
+            let span = (hi - lo).max(0.3);
+            let mid = 0.5 * (lo + hi);
+            (mid - 0.55 * span, mid + 0.55 * span)
+        };
+        let (x0, x1) = pad(x0, x1);
+        let (y0, y1) = pad(y0, y1);
+        let (px0, px1) = (LEFT, WIDTH - RIGHT);
+        let (py0, py1) = (PLOT_H - BOTTOM, TOP);
+        let map = move |(x, y): (f64, f64)| {
+            (px0 + (x - x0) / (x1 - x0) * (px1 - px0), py0 + (y - y0) / (y1 - y0) * (py1 - py0))
+        };
+        for (v, labelled) in ticks(x0, x1) {
+            let (x, _) = map((v.log10(), y0));
+            prims.push(Prim::Line {
+                a: (x, py0),
+                b: (x, py1),
+                color: GRID,
+                width: 1.0,
+                dashed: false,
+            });
+            if labelled {
+                prims.push(Prim::Text {
+                    at: (x, py0 + 8.0),
+                    text: tick_label(v),
+                    anchor: Anchor::Middle,
+                    vertical: false,
+                });
+            }
+        }
+        for (v, labelled) in ticks(y0, y1) {
+            let (_, y) = map((x0, v.log10()));
+            prims.push(Prim::Line {
+                a: (px0, y),
+                b: (px1, y),
+                color: GRID,
+                width: 1.0,
+                dashed: false,
+            });
+            if labelled {
+                prims.push(Prim::Text {
+                    at: (px0 - 8.0, y - TEXT / 2.0),
+                    text: tick_label(v),
+                    anchor: Anchor::End,
+                    vertical: false,
+                });
+            }
+        }
+        let frame = [(px0, py0), (px1, py0), (px1, py1), (px0, py1), (px0, py0)];
+        for w in frame.windows(2) {
+            prims.push(Prim::Line { a: w[0], b: w[1], color: BLACK, width: 1.5, dashed: false });
+        }
+        prims.push(Prim::Text {
+            at: (0.5 * (px0 + px1), 14.0),
+            text: self.title.clone(),
+            anchor: Anchor::Middle,
+            vertical: false,
+        });
+        prims.push(Prim::Text {
+            at: (0.5 * (px0 + px1), py0 + 40.0),
+            text: self.x_label.clone(),
+            anchor: Anchor::Middle,
+            vertical: false,
+        });
+        prims.push(Prim::Text {
+            at: (20.0, 0.5 * (py0 + py1)),
+            text: self.y_label.clone(),
+            anchor: Anchor::Middle,
+            vertical: true,
+        });
+        for (i, line) in self.lines.iter().enumerate() {
+            let color = PALETTE[line.color % PALETTE.len()];
+            let p: Vec<(f64, f64)> = pts(line).into_iter().map(map).collect();
+            for w in p.windows(2) {
+                prims.push(Prim::Line {
+                    a: w[0],
+                    b: w[1],
+                    color,
+                    width: if line.dashed { 1.5 } else { 2.0 },
+                    dashed: line.dashed,
+                });
+            }
+            if !line.dashed {
+                prims.extend(p.iter().map(|&at| Prim::Marker { at, color }));
+            }
+            let y = PLOT_H + i as f64 * LEGEND_ROW;
+            prims.push(Prim::Line {
+                a: (LEFT, y + TEXT / 2.0),
+                b: (LEFT + 40.0, y + TEXT / 2.0),
+                color,
+                width: 2.0,
+                dashed: line.dashed,
+            });
+            prims.push(Prim::Text {
+                at: (LEFT + 52.0, y),
+                text: line.label.clone(),
+                anchor: Anchor::Start,
+                vertical: false,
+            });
+        }
+        prims
+    }
+
+    /// The chart as an SVG document.
+    pub fn svg(&self) -> String {
+        let h = self.height();
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{h}" viewBox="0 0 {WIDTH} {h}" font-family="monospace" font-size="{TEXT}">"#
+        );
+        let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+        let hex = |c: [u8; 3]| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]);
+        for p in self.layout() {
+            match p {
+                Prim::Line { a, b, color, width, dashed } => {
+                    let dash = if dashed { r#" stroke-dasharray="8 5""# } else { "" };
+                    let _ = writeln!(
+                        s,
+                        r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{}" stroke-width="{width}"{dash}/>"#,
+                        a.0,
+                        a.1,
+                        b.0,
+                        b.1,
+                        hex(color)
+                    );
+                }
+                Prim::Marker { at, color } => {
+                    let _ = writeln!(
+                        s,
+                        r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{}"/>"#,
+                        at.0,
+                        at.1,
+                        hex(color)
+                    );
+                }
+                Prim::Text { at, text, anchor, vertical } => {
+                    let anchor = match anchor {
+                        Anchor::Start => "start",
+                        Anchor::Middle => "middle",
+                        Anchor::End => "end",
+                    };
+                    let text = text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+                    let (x, y) = (at.0, at.1 + TEXT * 0.8);
+                    let rotate = if vertical {
+                        format!(r#" transform="rotate(-90 {:.1} {:.1})""#, at.0, at.1)
+                    } else {
+                        String::new()
+                    };
+                    let y = if vertical { at.1 + TEXT * 0.3 } else { y };
+                    let _ = writeln!(
+                        s,
+                        r#"<text x="{x:.1}" y="{y:.1}" text-anchor="{anchor}"{rotate}>{text}</text>"#
+                    );
+                }
+            }
+        }
+        s.push_str("</svg>\n");
+        s
+    }
+
+    /// The chart rasterised: width, height and 8-bit RGB pixels, row-major.
+    pub fn raster(&self) -> (u32, u32, Vec<u8>) {
+        let (w, h) = (WIDTH as usize, self.height() as usize);
+        let mut px = vec![255u8; w * h * 3];
+        let mut put = |x: i64, y: i64, c: [u8; 3]| {
+            if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
+                let i = (y as usize * w + x as usize) * 3;
+                px[i..i + 3].copy_from_slice(&c);
+            }
+        };
+        for p in self.layout() {
+            match p {
+                Prim::Line { a, b, color, width, dashed } => {
+                    let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+                    let steps = (len * 4.0).ceil().max(1.0) as usize;
+                    let half = (width * 0.5).max(0.5);
+                    for k in 0..=steps {
+                        let t = k as f64 / steps as f64;
+                        if dashed && (t * len) % 13.0 > 8.0 {
+                            continue;
+                        }
+                        let (x, y) = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+                        for yy in (y - half).round() as i64..(y + half).round() as i64 {
+                            for xx in (x - half).round() as i64..(x + half).round() as i64 {
+                                put(xx, yy, color);
+                            }
+                        }
+                    }
+                }
+                Prim::Marker { at, color } => {
+                    for dy in -3i64..=3 {
+                        for dx in -3i64..=3 {
+                            if dx * dx + dy * dy <= 10 {
+                                put(at.0.round() as i64 + dx, at.1.round() as i64 + dy, color);
+                            }
+                        }
+                    }
+                }
+                Prim::Text { at, text, anchor, vertical } => {
+                    let n = text.chars().count() as f64;
+                    let offset = match anchor {
+                        Anchor::Start => 0.0,
+                        Anchor::Middle => -n * TEXT / 2.0,
+                        Anchor::End => -n * TEXT,
+                    };
+                    for (i, ch) in text.chars().enumerate() {
+                        let glyph = font8x8::BASIC_FONTS
+                            .get(ch)
+                            .or_else(|| font8x8::GREEK_FONTS.get(ch))
+                            .or_else(|| font8x8::LATIN_FONTS.get(ch))
+                            .unwrap_or([0; 8]);
+                        let along = offset + i as f64 * TEXT;
+                        for (gy, row) in glyph.iter().enumerate() {
+                            for gx in 0..8 {
+                                if row >> gx & 1 == 0 {
+                                    continue;
+                                }
+                                for s in 0..4 {
+                                    let (u, v) =
+                                        (along + (2 * gx + s % 2) as f64, (2 * gy + s / 2) as f64);
+                                    let (x, y) = if vertical {
+                                        (at.0 + v - TEXT / 2.0, at.1 - u)
+                                    } else {
+                                        (at.0 + u, at.1 + v)
+                                    };
+                                    put(x.round() as i64, y.round() as i64, BLACK);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        (w as u32, h as u32, px)
+    }
+
+    /// Writes the SVG file.
+    pub fn write_svg(&self, path: &Path) -> Result<()> {
+        std::fs::write(path, self.svg())
+            .map_err(|e| Error::Output { path: path.to_path_buf(), message: e.to_string() })
+    }
+
+    /// Writes the PNG file.
+    pub fn write_png(&self, path: &Path) -> Result<()> {
+        let err = |e: &dyn std::fmt::Display| Error::Output {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        };
+        let (w, h, data) = self.raster();
+        let file = std::fs::File::create(path).map_err(|e| err(&e))?;
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut writer = enc.write_header().map_err(|e| err(&e))?;
+        writer.write_image_data(&data).map_err(|e| err(&e))?;
+        writer.finish().map_err(|e| err(&e))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_cover_decades() {
+        let t = ticks(-2.2, 1.3);
+        let labelled: Vec<f64> = t.iter().filter(|t| t.1).map(|t| t.0).collect();
+        assert_eq!(labelled, vec![0.01, 0.1, 1.0, 10.0]);
+    }
+
+    #[test]
+    fn raster_draws_series_in_colour() {
+        let chart = Chart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            lines: vec![Line {
+                label: "a".into(),
+                points: vec![(1.0, 1.0), (10.0, 0.1), (100.0, 0.01)],
+                dashed: false,
+                color: 1,
+            }],
+        };
+        let (w, h, px) = chart.raster();
+        assert_eq!(px.len(), (w * h * 3) as usize);
+        let red = px.chunks(3).filter(|c| *c == PALETTE[1]).count();
+        assert!(red > 500, "series drawn: {red} pixels");
+        assert!(chart.svg().contains("<circle"));
+    }
+}

@@ -1,0 +1,685 @@
+//! Speed against accuracy: render a scene while measuring, at log-spaced iteration counts, the
+//! error against a reference image, for several series of settings; fit the convergence slope of
+//! each series and compare it with theory.
+//!
+//! Errors are over every pixel and channel (or a region):
+//!
+//! - RMSE = √(mean (x − ref)² − mean v_ref), where v_ref is the reference's own estimated variance
+//!   of the mean per pixel (a `variance` layer written by `haze render --reference`; zero if the
+//!   reference has none). Subtracting it removes the reference's noise from the expected squared
+//!   error, so a reference need not be far more converged than the renders it judges.
+//! - relative RMSE = RMSE / m, with m the mean reference value over the region.
+//! - relMSE = mean ((x − ref)² − v_ref) / (ref² + 0.01 m²): the per-pixel relative error, with
+//!   pixels darker than a tenth of the mean weighted as if they were that bright.
+//!
+//! Checkpoints are iteration counts (1, 2, 3, 4, 5, 6, 8, 10, 13, 16, 20, …: ten per decade), so
+//! runs with different seeds are measured after the same work and can be averaged: each point of
+//! a series averages the squared errors and the times over its runs. The time excludes the
+//! measuring itself.
+//!
+//! Theory (docs/convergence.md, ../DESIGN §3): with kernel dimension k on a schedule of dimension d
+//! and reduction α, the variance of the mean falls as N^−(1 − k(1−α)/d) and the squared bias as
+//! N^−4(1−α)/d, so the RMSE falls with slope −min(1 − k(1−α)/d, 4(1−α)/d)/2 against N (and against
+//! time, which grows as N). A photon-mapping render is as slow as its slowest estimate; the path
+//! tracer's slope is −1/2.
+
+use crate::chart::{Chart, Line};
+use crate::error::{Error, Result};
+use crate::output::Image;
+use crate::progress::Status;
+use crate::scene::Scene;
+use crate::settings::{Integrator, Progression, RenderSettings, VolumeEstimate};
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+/// A reference image.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Linear RGB, row-major.
+    pub pixels: Vec<[f32; 3]>,
+    /// Estimated variance of the mean per pixel, if the reference carries it.
+    pub variance: Option<Vec<[f32; 3]>>,
+    /// How it was made (the `haze:reference` attribute), if it says.
+    pub description: Option<String>,
+    /// The integrator and seed that rendered it (`haze:integrator`, `haze:seed`), if it says.
+    pub made_by: Option<(Integrator, u64)>,
+}
+
+impl Reference {
+    /// A reference from an image in memory (with its variance estimate).
+    pub fn from_image(image: &Image) -> Self {
+        Self {
+            width: image.width,
+            height: image.height,
+            pixels: image.pixels.clone(),
+            variance: image.variance.clone(),
+            description: Some(image.reference_description()),
+            made_by: Some((image.info.integrator, image.info.seed)),
+        }
+    }
+
+    /// Reads an OpenEXR reference: the first layer's R, G and B channels, and the layer named
+    /// `variance` if there is one. Errors name the file.
+    pub fn load(path: &Path) -> Result<Self> {
+        use exr::meta::attribute::AttributeValue;
+        use exr::prelude::*;
+        let err = |m: String| crate::Error::Output { path: path.to_path_buf(), message: m };
+        if !path.is_file() {
+            return Err(crate::Error::Io {
+                path: path.to_path_buf(),
+                error: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+        let image = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgb_channels(
+                |res, _| (res.width(), vec![[0.0f32; 3]; res.width() * res.height()]),
+                |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b): (f32, f32, f32)| {
+                    px[pos.y() * *w + pos.x()] = [r, g, b];
+                },
+            )
+            .all_layers()
+            .all_attributes()
+            .from_file(path)
+            .map_err(|e| err(format!("cannot read as an RGB OpenEXR reference: {e}")))?;
+        let Some(first) = image.layer_data.first() else {
+            return Err(err("the file holds no image layer".into()));
+        };
+        let (w, h) = (first.size.width(), first.size.height());
+        let pixels = first.channel_data.pixels.1.clone();
+        let variance = image
+            .layer_data
+            .iter()
+            .find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n == "variance"))
+            .map(|l| l.channel_data.pixels.1.clone());
+        for (what, data) in [("pixel", Some(&pixels)), ("variance", variance.as_ref())] {
+            if let Some(i) = data
+                .and_then(|d| d.iter().position(|p| p.iter().any(|c| !c.is_finite() || *c < 0.0)))
+            {
+                return Err(err(format!(
+                    "{what} ({}, {}) is negative or not finite; a reference must be a finite radiance image",
+                    i % w,
+                    i / w
+                )));
+            }
+        }
+        let text = |key: &str| {
+            first.attributes.other.iter().find_map(|(k, v)| match v {
+                AttributeValue::Text(t) if k == key => Some(t.to_string()),
+                _ => None,
+            })
+        };
+        let description = text("haze:reference");
+        let made_by = match (text("haze:integrator"), text("haze:seed")) {
+            (Some(i), Some(s)) => i.parse().ok().zip(s.parse().ok()),
+            _ => None,
+        };
+        Ok(Self { width: w as u32, height: h as u32, pixels, variance, description, made_by })
+    }
+}
+
+/// A rectangle of pixels, [x0, x1) × [y0, y1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    /// Left column.
+    pub x0: u32,
+    /// Top row.
+    pub y0: u32,
+    /// One past the right column.
+    pub x1: u32,
+    /// One past the bottom row.
+    pub y1: u32,
+}
+
+impl std::str::FromStr for Region {
+    type Err = String;
+    /// Parses `X0,Y0,X1,Y1`.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let v: Vec<u32> = s
+            .split(',')
+            .map(|t| t.trim().parse::<u32>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| format!("`{s}` is not a region X0,Y0,X1,Y1 in whole pixels"))?;
+        match v[..] {
+            [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok(Region { x0, y0, x1, y1 }),
+            [_, _, _, _] => Err(format!("region `{s}` is empty: need X0 < X1 and Y0 < Y1")),
+            _ => Err(format!("`{s}` is not a region X0,Y0,X1,Y1")),
+        }
+    }
+}
+
+/// Errors of an image against a reference (see the module documentation).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ErrorMeasure {
+    /// Mean squared error, less the reference's own variance (not below zero).
+    pub mse: f64,
+    /// Relative MSE.
+    pub rel_mse: f64,
+    /// Mean reference value over the region.
+    pub reference_mean: f64,
+}
+
+impl ErrorMeasure {
+    /// Root-mean-square error.
+    pub fn rmse(&self) -> f64 {
+        self.mse.sqrt()
+    }
+
+    /// RMSE relative to the mean reference value.
+    pub fn rel_rmse(&self) -> f64 {
+        self.mse.sqrt() / self.reference_mean
+    }
+}
+
+/// Measures `pixels` (the reference's size, row-major) against `reference` over `region` (or the
+/// whole image).
+pub fn measure(pixels: &[[f32; 3]], reference: &Reference, region: Option<Region>) -> ErrorMeasure {
+    let w = reference.width as usize;
+    let r = region.unwrap_or(Region { x0: 0, y0: 0, x1: reference.width, y1: reference.height });
+    let idx = || {
+        (r.y0 as usize..r.y1 as usize)
+            .flat_map(move |y| (r.x0 as usize..r.x1 as usize).map(move |x| y * w + x))
+    };
+    let n = (3 * (r.x1 - r.x0) as usize * (r.y1 - r.y0) as usize) as f64;
+    let mean: f64 =
+        idx().map(|i| reference.pixels[i].iter().map(|&c| c as f64).sum::<f64>()).sum::<f64>() / n;
+    let eps = 0.01 * mean * mean;
+    let (mut se, mut rel) = (0.0, 0.0);
+    for i in idx() {
+        for c in 0..3 {
+            let v = reference.variance.as_ref().map_or(0.0, |v| v[i][c] as f64);
+            let rc = reference.pixels[i][c] as f64;
+            let d2 = (pixels[i][c] as f64 - rc).powi(2) - v;
+            se += d2;
+            rel += d2 / (rc * rc + eps);
+        }
+    }
+    ErrorMeasure { mse: (se / n).max(0.0), rel_mse: (rel / n).max(0.0), reference_mean: mean }
+}
+
+/// Iteration counts at which to measure: ten per decade, rounded and deduplicated, up to `max`.
+pub fn checkpoints(max: u64) -> Vec<u64> {
+    let mut out: Vec<u64> = Vec::new();
+    for k in 0.. {
+        let n = 10f64.powf(k as f64 / 10.0).round() as u64;
+        if n > max {
+            break;
+        }
+        if out.last() != Some(&n) {
+            out.push(n);
+        }
+    }
+    out
+}
+
+/// A named set of render settings to chart.
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// Legend label.
+    pub label: String,
+    /// Settings (seed, iterations and time limit are set per run).
+    pub settings: RenderSettings,
+}
+
+/// One measurement.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample {
+    /// Index of the series.
+    pub series: usize,
+    /// Run number (0-based); the run's seed is the series' seed plus this.
+    pub run: u32,
+    /// Iterations finished.
+    pub iterations: u64,
+    /// Light paths traced (0 for the path tracer).
+    pub light_paths: u64,
+    /// Render seconds (excluding measuring).
+    pub seconds: f64,
+    /// The errors.
+    pub error: ErrorMeasure,
+}
+
+/// How long and how often to render.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    /// Seconds per run.
+    pub seconds: f64,
+    /// Independent runs per series (seeds seed, seed + 1, …).
+    pub runs: u32,
+    /// Stop a run after this many iterations even if time is left.
+    pub max_iterations: Option<u64>,
+    /// Measure over this region only.
+    pub region: Option<Region>,
+}
+
+/// Renders every series `plan.runs` times, measuring at the [`checkpoints`]. `progress(series,
+/// run, seconds)` is called after every iteration. A raised `stop` ends the current run and skips
+/// the rest; the samples so far are returned.
+pub fn run(
+    scene: &Scene,
+    series: &[Series],
+    reference: &Reference,
+    plan: &Plan,
+    progress: &mut dyn FnMut(usize, u32, f64),
+    stop: &AtomicBool,
+) -> Result<Vec<Sample>> {
+    let [w, h] = scene.camera.resolution;
+    if [w, h] != [reference.width, reference.height] {
+        return Err(Error::Settings(format!(
+            "the reference is {}x{} but the scene renders {w}x{h}; render the reference at the same resolution",
+            reference.width, reference.height
+        )));
+    }
+    if let Some(r) = plan.region {
+        if r.x1 > w || r.y1 > h {
+            return Err(Error::Settings(format!(
+                "region {},{},{},{} lies outside the {w}x{h} image",
+                r.x0, r.y0, r.x1, r.y1
+            )));
+        }
+    }
+    // A render sharing the reference's integrator and seed repeats the reference's first
+    // iterations, and its error would fall for that reason alone.
+    if let Some((integrator, seed)) = reference.made_by {
+        for s in series {
+            let seeds = s.settings.seed..s.settings.seed.saturating_add(plan.runs as u64);
+            if s.settings.integrator == integrator && seeds.contains(&seed) {
+                return Err(Error::Settings(format!(
+                    "series `{}` would use seed {seed}, which rendered the reference with the same integrator: its samples would repeat the reference's; give another --seed",
+                    s.label
+                )));
+            }
+        }
+    }
+    let marks = checkpoints(u64::MAX / 2);
+    let mut samples = Vec::new();
+    for (si, s) in series.iter().enumerate() {
+        for run in 0..plan.runs {
+            if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return Ok(samples);
+            }
+            let mut settings = s.settings.clone();
+            settings.seed = s.settings.seed.wrapping_add(run as u64);
+            settings.iterations = plan.max_iterations;
+            settings.time_limit = Some(plan.seconds);
+            let mut next = 0;
+            let mut overhead = 0.0;
+            let mut on_iteration = |st: &Status| {
+                let t0 = Instant::now();
+                let seconds = st.elapsed() - overhead;
+                if st.iteration() == marks[next] {
+                    next += 1;
+                    let error = measure(&st.film.mean(), reference, plan.region);
+                    samples.push(Sample {
+                        series: si,
+                        run,
+                        iterations: st.iteration(),
+                        light_paths: st.info.light_paths,
+                        seconds,
+                        error,
+                    });
+                }
+                progress(si, run, seconds);
+                overhead += t0.elapsed().as_secs_f64();
+            };
+            crate::render(scene, &settings, &mut on_iteration, stop)
+                .map_err(|e| Error::Settings(format!("series `{}`: {e}", s.label)))?;
+        }
+    }
+    Ok(samples)
+}
+
+/// One point of a series: a checkpoint reached by every run, averaged over the runs.
+#[derive(Clone, Copy, Debug)]
+pub struct Point {
+    /// Iterations.
+    pub iterations: u64,
+    /// Mean render seconds over the runs.
+    pub seconds: f64,
+    /// Light paths per run.
+    pub light_paths: u64,
+    /// The errors, squared errors averaged over the runs.
+    pub error: ErrorMeasure,
+}
+
+/// A series' convergence, summarised.
+#[derive(Clone, Debug)]
+pub struct Summary {
+    /// Legend label.
+    pub label: String,
+    /// Averaged checkpoints.
+    pub points: Vec<Point>,
+    /// Least-squares slope of log RMSE against log time over the later half (in log time) of the
+    /// points; `None` with fewer than three points there.
+    pub fitted_slope: Option<f64>,
+    /// The slope theory predicts.
+    pub theory_slope: f64,
+}
+
+/// RMSE slope against time that theory predicts for `settings` on `scene` (module docs).
+pub fn theory_slope(scene: &Scene, settings: &RenderSettings) -> f64 {
+    if settings.integrator == Integrator::Path {
+        return -0.5;
+    }
+    // MSE exponent of an estimate with kernel dimension k on a schedule of dimension d.
+    let exponent = |k: f64, d: f64, a: f64| (1.0 - k * (1.0 - a) / d).min(4.0 * (1.0 - a) / d);
+    let mut e = exponent(2.0, 2.0, settings.alpha);
+    if !scene.media.is_empty() && settings.progression == Progression::Probabilistic {
+        let k = match settings.volume_estimate {
+            VolumeEstimate::Beam => 2.0,
+            VolumeEstimate::Point => 3.0,
+        };
+        e = e.min(exponent(k, settings.volume_dimension as f64, settings.volume_alpha));
+    }
+    -0.5 * e
+}
+
+/// Least-squares slope of log y against log x.
+pub fn fit_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let pts: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
+    if pts.len() < 3 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let (mx, my) = pts.iter().fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let sxx: f64 = pts.iter().map(|(x, _)| (x - mx).powi(2)).sum();
+    let sxy: f64 = pts.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// Averages the runs of each series at the checkpoints every run reached, and fits slopes.
+pub fn summarize(scene: &Scene, series: &[Series], samples: &[Sample], runs: u32) -> Vec<Summary> {
+    series
+        .iter()
+        .enumerate()
+        .map(|(si, s)| {
+            let mut points = Vec::new();
+            for n in checkpoints(u64::MAX / 2) {
+                let at: Vec<&Sample> =
+                    samples.iter().filter(|x| x.series == si && x.iterations == n).collect();
+                if at.is_empty() || at.len() < runs as usize {
+                    break;
+                }
+                let k = at.len() as f64;
+                points.push(Point {
+                    iterations: n,
+                    seconds: at.iter().map(|x| x.seconds).sum::<f64>() / k,
+                    light_paths: at[0].light_paths,
+                    error: ErrorMeasure {
+                        mse: at.iter().map(|x| x.error.mse).sum::<f64>() / k,
+                        rel_mse: at.iter().map(|x| x.error.rel_mse).sum::<f64>() / k,
+                        reference_mean: at[0].error.reference_mean,
+                    },
+                });
+            }
+            let fitted_slope = points.last().and_then(|last| {
+                let first = points[0].seconds;
+                let mid = (first * last.seconds).sqrt();
+                let late: Vec<(f64, f64)> = points
+                    .iter()
+                    .filter(|p| p.seconds >= mid)
+                    .map(|p| (p.seconds, p.error.rmse()))
+                    .collect();
+                fit_slope(&late)
+            });
+            Summary {
+                label: s.label.clone(),
+                points,
+                fitted_slope,
+                theory_slope: theory_slope(scene, &s.settings),
+            }
+        })
+        .collect()
+}
+
+impl Summary {
+    /// Seconds until the relative RMSE first fell to `target` (log-log interpolation between the
+    /// checkpoints around it); `None` if it never did.
+    pub fn time_to(&self, target: f64) -> Option<f64> {
+        let i = self.points.iter().position(|p| p.error.rel_rmse() <= target)?;
+        if i == 0 {
+            return Some(self.points[0].seconds);
+        }
+        let (a, b) = (&self.points[i - 1], &self.points[i]);
+        let (ea, eb) = (a.error.rel_rmse().ln(), b.error.rel_rmse().ln());
+        let t = if ea > eb { (ea - target.ln()) / (ea - eb) } else { 1.0 };
+        Some((a.seconds.ln() + t * (b.seconds.ln() - a.seconds.ln())).exp())
+    }
+}
+
+impl Summary {
+    /// If the relative RMSE never reached `target`: the seconds the fitted slope predicts from the
+    /// last point (an extrapolation, labelled as such in tables).
+    pub fn extrapolated_time_to(&self, target: f64) -> Option<f64> {
+        let last = self.points.last()?;
+        let slope = self.fitted_slope.filter(|s| *s < 0.0)?;
+        let e = last.error.rel_rmse();
+        (e > target).then(|| last.seconds * (target / e).powf(1.0 / slope))
+    }
+}
+
+/// Formats a slope for tables and legends.
+fn slope(s: Option<f64>) -> String {
+    s.map_or("n/a".to_string(), |s| format!("{s:.2}"))
+}
+
+/// The log-log chart of RMSE against time: each series with its theory slope as a dashed line of
+/// the same colour through the series' last point, across its fitted range.
+pub fn chart(title: &str, summaries: &[Summary]) -> Chart {
+    let mut lines = Vec::new();
+    for (i, s) in summaries.iter().enumerate() {
+        lines.push(Line {
+            label: format!(
+                "{}: slope {} (theory {:.2})",
+                s.label,
+                slope(s.fitted_slope),
+                s.theory_slope
+            ),
+            points: s.points.iter().map(|p| (p.seconds, p.error.rmse())).collect(),
+            dashed: false,
+            color: i,
+        });
+        if let (Some(first), Some(last)) = (s.points.first(), s.points.last()) {
+            let t0 = (first.seconds * last.seconds).sqrt();
+            let e0 = last.error.rmse() * (t0 / last.seconds).powf(s.theory_slope);
+            lines.push(Line {
+                label: format!("{}: theory", s.label),
+                points: vec![(t0, e0), (last.seconds, last.error.rmse())],
+                dashed: true,
+                color: i,
+            });
+        }
+    }
+    Chart {
+        title: title.to_string(),
+        x_label: "render time [s]".into(),
+        y_label: "RMSE".into(),
+        lines,
+    }
+}
+
+/// The samples as CSV: one row per run and checkpoint.
+pub fn csv(series: &[Series], samples: &[Sample]) -> String {
+    let mut out =
+        String::from("series,run,seed,iterations,light_paths,seconds,rmse,rel_rmse,rel_mse\n");
+    for s in samples {
+        let se = &series[s.series];
+        out.push_str(&format!(
+            "{},{},{},{},{},{:.6},{:.6e},{:.6e},{:.6e}\n",
+            se.label.replace(',', ";"),
+            s.run,
+            se.settings.seed.wrapping_add(s.run as u64),
+            s.iterations,
+            s.light_paths,
+            s.seconds,
+            s.error.rmse(),
+            s.error.rel_rmse(),
+            s.error.rel_mse
+        ));
+    }
+    out
+}
+
+/// A Markdown table of the summaries: slopes and seconds to 5% and 1% relative RMSE.
+pub fn markdown(summaries: &[Summary]) -> String {
+    let mut out = String::from(
+        "| series | iterations | seconds | rel. RMSE | slope (fit) | slope (theory) | s to 5% | s to 1% |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for s in summaries {
+        let last = s.points.last();
+        let t = |target: f64| match (s.time_to(target), s.extrapolated_time_to(target)) {
+            (Some(v), _) => format!("{v:.2}"),
+            (None, Some(v)) => format!("not reached (fit: ~{})", round_seconds(v)),
+            (None, None) => "not reached".into(),
+        };
+        out.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {:.2} | {} | {} |\n",
+            s.label,
+            last.map_or(0, |p| p.iterations),
+            last.map_or("-".into(), |p| format!("{:.1}", p.seconds)),
+            last.map_or("-".into(), |p| format!("{:.2}%", 100.0 * p.error.rel_rmse())),
+            slope(s.fitted_slope),
+            s.theory_slope,
+            t(0.05),
+            t(0.01),
+        ));
+    }
+    out
+}
+
+/// Seconds rounded to two significant digits, for extrapolations.
+fn round_seconds(v: f64) -> String {
+    if !v.is_finite() {
+        return "never".into();
+    }
+    let digits = v.abs().log10().floor() as i32 - 1;
+    let scale = 10f64.powi(digits);
+    format!("{:.0}", (v / scale).round() * scale)
+}
+
+/// Named comparisons for `haze converge --compare`: the series each one charts, derived from the
+/// scene's settings `base`.
+pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Series>, String> {
+    let with = |label: String, f: &dyn Fn(&mut RenderSettings)| {
+        let mut s = base.clone();
+        f(&mut s);
+        Series { label, settings: s }
+    };
+    Ok(match name {
+        "estimate" => ["beam", "point"]
+            .iter()
+            .map(|e| {
+                with(e.to_string(), &|s| s.volume_estimate = e.parse().expect("known estimate"))
+            })
+            .collect(),
+        "alpha" => [0.5, 2.0 / 3.0, 0.9]
+            .iter()
+            .map(|&a| with(format!("alpha {a:.2}"), &|s| s.alpha = a))
+            .collect(),
+        "volume-alpha" => [0.3, 0.5, 4.0 / 7.0, 0.8]
+            .iter()
+            .map(|&a| with(format!("volume alpha {a:.2}"), &|s| s.volume_alpha = a))
+            .collect(),
+        "kernel" => crate::estimate::kernel::Kernel::ALL
+            .iter()
+            .map(|&k| with(k.name().to_string(), &|s| s.kernel = k))
+            .collect(),
+        "dimension" => [3, 2]
+            .iter()
+            .map(|&d| {
+                with(format!("beam, d = {d}"), &|s| {
+                    s.volume_estimate = VolumeEstimate::Beam;
+                    s.volume_dimension = d;
+                })
+            })
+            .collect(),
+        "photons" => [base.photons / 4, base.photons, base.photons * 4]
+            .iter()
+            .map(|&p| with(format!("{p} photons/it"), &|s| s.photons = p.max(1)))
+            .collect(),
+        "progression" => [Progression::Probabilistic, Progression::Original]
+            .iter()
+            .map(|&p| with(format!("{} PPM", p.name()), &|s| s.progression = p))
+            .collect(),
+        "integrator" => [Integrator::PhotonMapping, Integrator::Path]
+            .iter()
+            .map(|&i| {
+                let label = match i {
+                    Integrator::PhotonMapping => "photon mapping",
+                    Integrator::Path => "path tracing",
+                };
+                with(label.to_string(), &|s| s.integrator = i)
+            })
+            .collect(),
+        _ => {
+            return Err(format!(
+                "unknown comparison `{name}`; expected estimate, alpha, volume-alpha, kernel, dimension, photons, progression or integrator"
+            ));
+        }
+    })
+}
+
+/// Parses a series `LABEL:KEY=VALUE,KEY=VALUE…` (keys of the scene file's `[render]` table)
+/// against the base settings.
+pub fn parse_series(spec: &str, base: &RenderSettings) -> std::result::Result<Series, String> {
+    let (label, rest) = spec
+        .split_once(':')
+        .ok_or_else(|| format!("series `{spec}`: expected LABEL:KEY=VALUE[,KEY=VALUE…]"))?;
+    let mut settings = base.clone();
+    for kv in rest.split(',').filter(|t| !t.trim().is_empty()) {
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| format!("series `{label}`: `{kv}` is not KEY=VALUE"))?;
+        settings.set(k.trim(), v).map_err(|e| format!("series `{label}`: {e}"))?;
+    }
+    settings.iterations = base.iterations;
+    settings.validate().map_err(|e| format!("series `{label}`: {}: {}", e.key, e.message))?;
+    Ok(Series { label: label.trim().to_string(), settings })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checkpoints_are_log_spaced() {
+        assert_eq!(checkpoints(40), vec![1, 2, 3, 4, 5, 6, 8, 10, 13, 16, 20, 25, 32, 40]);
+    }
+
+    #[test]
+    fn slope_of_a_power_law() {
+        let pts: Vec<(f64, f64)> = (1..10).map(|i| (i as f64, (i as f64).powf(-0.4))).collect();
+        assert!((fit_slope(&pts).unwrap() + 0.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn region_parsing() {
+        assert_eq!("1,2,3,4".parse::<Region>(), Ok(Region { x0: 1, y0: 2, x1: 3, y1: 4 }));
+        assert!("3,2,1,4".parse::<Region>().is_err());
+        assert!("1,2,3".parse::<Region>().is_err());
+    }
+
+    #[test]
+    fn reference_variance_is_subtracted() {
+        let reference = Reference {
+            width: 1,
+            height: 1,
+            pixels: vec![[1.0; 3]],
+            variance: Some(vec![[0.01; 3]]),
+            description: None,
+            made_by: None,
+        };
+        let e = measure(&[[1.2; 3]], &reference, None);
+        assert!((e.mse - 0.03).abs() < 1e-6, "{}", e.mse);
+        assert!((e.rel_rmse() - 0.03f64.sqrt()).abs() < 1e-6);
+    }
+}

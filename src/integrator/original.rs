@@ -1,0 +1,129 @@
+//! The original progressive photon mapping (Hachisuka, Ogaki & Jensen 2008), kept as a comparison
+//! mode for the surface estimate (`progression = "original"`).
+//!
+//! Every pixel keeps its own statistics: a radius R, an accumulated photon count N and an
+//! accumulated flux τ. After each photon pass the pixel's hit point gathers the M photons within R
+//! (constant kernel) with flux Φ = Σ f β_p, and
+//!
+//!   N' = N + αM,   R'² = R² (N + αM) / (N + M),   τ' = (τ + β Φ) R'² / R²,
+//!
+//! so the radius shrinks only where photons arrive. The pixel's radiance is
+//! τ / (π R² · light paths so far), plus the emission its eye paths saw directly (averaged).
+//!
+//! The eye path is re-jittered every iteration, as in stochastic PPM (Hachisuka & Jensen 2009),
+//! which uses the same update: with one fixed hit point per pixel the method would converge to a
+//! one-sample-per-pixel image, not to the pixel-filtered image that the references and the
+//! probabilistic mode converge to. Scenes with media are refused: the per-pixel statistics are
+//! defined for surface hit points only.
+
+use super::camera::{CameraPass, Maps, trace_eye};
+use crate::estimate::surface::NORMAL_COS;
+use crate::math::Rgb;
+use crate::photon::Photon;
+use crate::photon::map::PhotonGrid;
+use crate::scene::Scene;
+use glam::DVec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// One pixel's statistics.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelStats {
+    /// Squared gathering radius R².
+    pub radius2: f64,
+    /// Accumulated (α-weighted) photon count N.
+    pub photons: f64,
+    /// Accumulated flux τ.
+    pub flux: DVec3,
+    /// Sum of the emission seen directly by the pixel's eye paths.
+    pub direct: DVec3,
+}
+
+/// The per-pixel state of an original-PPM render.
+pub struct OriginalState {
+    /// One entry per pixel, row-major.
+    pub pixels: Vec<PixelStats>,
+    /// Radius reduction α.
+    pub alpha: f64,
+}
+
+impl OriginalState {
+    /// Every pixel starts at radius `r1`, with no photons and no flux.
+    pub fn new(pixels: usize, r1: f64, alpha: f64) -> Self {
+        let p =
+            PixelStats { radius2: r1 * r1, photons: 0.0, flux: DVec3::ZERO, direct: DVec3::ZERO };
+        Self { pixels: vec![p; pixels], alpha }
+    }
+
+    /// The largest radius of any pixel (the photon grid must be built for it).
+    pub fn max_radius(&self) -> f64 {
+        self.pixels.iter().map(|p| p.radius2).fold(0.0, f64::max).sqrt()
+    }
+
+    /// The root-mean-square radius over the pixels (reported as the render's radius).
+    pub fn rms_radius(&self) -> f64 {
+        let n = self.pixels.len().max(1) as f64;
+        (self.pixels.iter().map(|p| p.radius2).sum::<f64>() / n).sqrt()
+    }
+}
+
+/// Gathers photons at every pixel's hit point for iteration `pass.iteration`, updates the
+/// statistics and writes the current estimate (after `iterations` photon passes of `paths` light
+/// paths each) into `image`. Returns `false` if `stop` was raised before it finished; the state is
+/// then partly updated and must be discarded.
+#[allow(clippy::too_many_arguments)]
+pub fn gather_pass(
+    scene: &Scene,
+    maps: &Maps,
+    pass: &CameraPass,
+    state: &mut OriginalState,
+    paths_so_far: u64,
+    stop: &AtomicBool,
+    nonfinite: &AtomicU64,
+    image: &mut [Rgb],
+) -> bool {
+    let width = scene.camera.resolution[0] as usize;
+    let alpha = state.alpha;
+    let iterations = pass.iteration as f64;
+    let surface: &PhotonGrid<Photon> = maps.surface;
+    state.pixels.par_chunks_mut(width).zip(image.par_chunks_mut(width)).enumerate().for_each(
+        |(y, (stats, row))| {
+            if stop.load(Ordering::Relaxed) {
+                return;
+            }
+            for (x, (st, px)) in stats.iter_mut().zip(row.iter_mut()).enumerate() {
+                let r2 = st.radius2;
+                let r = r2.sqrt() as f32;
+                let (mut m, mut phi) = (0u64, DVec3::ZERO);
+                let direct = trace_eye(scene, maps, pass, x as u32, y as u32, |p, n, f, beta| {
+                    let mut sum = Rgb::ZERO;
+                    surface.query(p, r, |ph, _| {
+                        if ph.n.dot(n) > NORMAL_COS {
+                            m += 1;
+                            sum += ph.beta;
+                        }
+                    });
+                    phi = (beta * f * sum).as_dvec3();
+                    Rgb::ZERO
+                });
+                let direct = direct.as_dvec3();
+                if direct.is_finite() && phi.is_finite() {
+                    st.direct += direct;
+                    if m > 0 {
+                        let m = m as f64;
+                        let ratio = (st.photons + alpha * m) / (st.photons + m);
+                        st.photons += alpha * m;
+                        st.radius2 *= ratio;
+                        st.flux = (st.flux + phi) * ratio;
+                    }
+                } else {
+                    nonfinite.fetch_add(1, Ordering::Relaxed);
+                }
+                let l = st.direct / iterations
+                    + st.flux / (std::f64::consts::PI * st.radius2 * paths_so_far as f64);
+                *px = l.as_vec3();
+            }
+        },
+    );
+    !stop.load(Ordering::Relaxed)
+}
