@@ -57,7 +57,8 @@ impl Reference {
             width: image.width,
             height: image.height,
             pixels: image.pixels.clone(),
-            variance: image.variance.clone(),
+            // As in `Image::write_reference`: only the path tracer's variance estimate is sound.
+            variance: image.variance.clone().filter(|_| image.info.integrator == Integrator::Path),
             description: Some(image.reference_description()),
             made_by: Some((image.info.integrator, image.info.seed)),
         }
@@ -93,11 +94,20 @@ impl Reference {
         };
         let (w, h) = (first.size.width(), first.size.height());
         let pixels = first.channel_data.pixels.1.clone();
-        let variance = image
+        let variance_layer = image
             .layer_data
             .iter()
-            .find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n == "variance"))
-            .map(|l| l.channel_data.pixels.1.clone());
+            .find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n == "variance"));
+        if let Some(l) = variance_layer {
+            if (l.size.width(), l.size.height()) != (w, h) {
+                return Err(err(format!(
+                    "the variance layer is {}x{} but the image is {w}x{h}",
+                    l.size.width(),
+                    l.size.height()
+                )));
+            }
+        }
+        let variance = variance_layer.map(|l| l.channel_data.pixels.1.clone());
         for (what, data) in [("pixel", Some(&pixels)), ("variance", variance.as_ref())] {
             if let Some(i) = data
                 .and_then(|d| d.iter().position(|p| p.iter().any(|c| !c.is_finite() || *c < 0.0)))
@@ -120,6 +130,9 @@ impl Reference {
             (Some(i), Some(s)) => i.parse().ok().zip(s.parse().ok()),
             _ => None,
         };
+        // Photon-mapping iterations are not identically distributed, so their spread overstates
+        // the noise of the mean; a variance layer in such a file (older haze wrote one) is ignored.
+        let variance = variance.filter(|_| made_by.is_none_or(|(i, _)| i == Integrator::Path));
         Ok(Self { width: w as u32, height: h as u32, pixels, variance, description, made_by })
     }
 }
@@ -157,9 +170,11 @@ impl std::str::FromStr for Region {
 /// Errors of an image against a reference (see the module documentation).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ErrorMeasure {
-    /// Mean squared error, less the reference's own variance (not below zero).
+    /// Mean squared error less the reference's own variance. Not clamped (it can come out
+    /// slightly negative when the reference's noise dominates), so that averages over runs stay
+    /// unbiased; [`Self::rmse`] clamps.
     pub mse: f64,
-    /// Relative MSE.
+    /// Relative MSE (likewise unclamped).
     pub rel_mse: f64,
     /// Mean reference value over the region.
     pub reference_mean: f64,
@@ -168,12 +183,12 @@ pub struct ErrorMeasure {
 impl ErrorMeasure {
     /// Root-mean-square error.
     pub fn rmse(&self) -> f64 {
-        self.mse.sqrt()
+        self.mse.max(0.0).sqrt()
     }
 
     /// RMSE relative to the mean reference value.
     pub fn rel_rmse(&self) -> f64 {
-        self.mse.sqrt() / self.reference_mean
+        self.rmse() / self.reference_mean
     }
 }
 
@@ -200,7 +215,7 @@ pub fn measure(pixels: &[[f32; 3]], reference: &Reference, region: Option<Region
             rel += d2 / (rc * rc + eps);
         }
     }
-    ErrorMeasure { mse: (se / n).max(0.0), rel_mse: (rel / n).max(0.0), reference_mean: mean }
+    ErrorMeasure { mse: se / n, rel_mse: rel / n, reference_mean: mean }
 }
 
 /// Iteration counts at which to measure: ten per decade, rounded and deduplicated, up to `max`.
@@ -283,17 +298,30 @@ pub fn run(
             )));
         }
     }
-    // A render sharing the reference's integrator and seed repeats the reference's first
-    // iterations, and its error would fall for that reason alone.
-    if let Some((integrator, seed)) = reference.made_by {
+    // A render sharing the reference's seed repeats some of the reference's random numbers (the
+    // same photons for the same integrator; the same pixel jitter for either, since both draw
+    // eye paths from one stream), and its error would fall for that reason alone.
+    if let Some((_, seed)) = reference.made_by {
         for s in series {
             let seeds = s.settings.seed..s.settings.seed.saturating_add(plan.runs as u64);
-            if s.settings.integrator == integrator && seeds.contains(&seed) {
+            if seeds.contains(&seed) {
                 return Err(Error::Settings(format!(
-                    "series `{}` would use seed {seed}, which rendered the reference with the same integrator: its samples would repeat the reference's; give another --seed",
+                    "series `{}` would use seed {seed}, which rendered the reference: its samples would repeat the reference's; give another --seed",
                     s.label
                 )));
             }
+        }
+    }
+    // Refuse a series that cannot render before any work is done.
+    for s in series {
+        s.settings.validate().map_err(|e| {
+            Error::Settings(format!("series `{}`: {}: {}", s.label, e.key, e.message))
+        })?;
+        if s.settings.progression == Progression::Original && !scene.media.is_empty() {
+            return Err(Error::Settings(format!(
+                "series `{}`: the original progression is for surfaces only; this scene has media",
+                s.label
+            )));
         }
     }
     let marks = checkpoints(u64::MAX / 2);
@@ -543,7 +571,7 @@ pub fn markdown(summaries: &[Summary]) -> String {
         };
         out.push_str(&format!(
             "| {} | {} | {} | {} | {} | {:.2} | {} | {} |\n",
-            s.label,
+            s.label.replace('|', "/"),
             last.map_or(0, |p| p.iterations),
             last.map_or("-".into(), |p| format!("{:.1}", p.seconds)),
             last.map_or("-".into(), |p| format!("{:.2}%", 100.0 * p.error.rel_rmse())),

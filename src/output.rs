@@ -104,9 +104,10 @@ impl Image {
     }
 
     /// Writes the image as a reference for `haze converge`: the OpenEXR file of
-    /// [`Self::write_exr`] with the attribute `haze:reference` (saying how it was made) and a
-    /// second layer, `variance`, holding each pixel's estimated variance of the mean, which
-    /// `haze converge` subtracts from its squared errors. Also writes the PNG preview.
+    /// [`Self::write_exr`] with the attribute `haze:reference` (saying how it was made) and, for
+    /// path-traced references, a second layer, `variance`, holding each pixel's estimated
+    /// variance of the mean, which `haze converge` subtracts from its squared errors. Also writes
+    /// the PNG preview.
     pub fn write_reference(&self, exr_path: &Path, exposure: f32) -> Result<PathBuf> {
         self.write_exr_with(exr_path, true)?;
         let png = exr_path.with_extension("png");
@@ -178,26 +179,28 @@ impl Image {
             Text::from("haze:reference"),
             AttributeValue::Text(Text::new_or_none(description.as_str()).unwrap_or_default()),
         );
-        let zero = vec![[0.0f32; 3]; self.pixels.len()];
-        let variance = self.variance.as_ref().unwrap_or(&zero);
+        let layer = Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels);
+        let bounds = exr::math::Vec2(size.0, size.1);
+        let image = Image::empty(ImageAttributes::new(IntegerBounds::from_dimensions(bounds)))
+            .with_layer(layer);
+        // Only the path tracer's iterations are identically distributed, so only its per-pixel
+        // sample variance estimates the noise of the mean; photon-mapping iterations drift as
+        // the radius shrinks, and subtracting their spread would understate errors.
+        let variance = match (&self.variance, self.info.integrator) {
+            (Some(v), crate::settings::Integrator::Path) => v,
+            _ => return image.write().to_file(path).map_err(|e| out_err(path, e)),
+        };
         let var_channels = SpecificChannels::rgb(|p: Vec2<usize>| {
             let [r, g, b] = variance[p.y() * w + p.x()];
             (r, g, b)
         });
-        let layer = Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels);
         let var_layer = Layer::new(
             size,
             LayerAttributes::named("variance"),
             Encoding::SMALL_LOSSLESS,
             var_channels,
         );
-        let bounds = exr::math::Vec2(size.0, size.1);
-        Image::empty(ImageAttributes::new(IntegerBounds::from_dimensions(bounds)))
-            .with_layer(layer)
-            .with_layer(var_layer)
-            .write()
-            .to_file(path)
-            .map_err(|e| out_err(path, e))
+        image.with_layer(var_layer).write().to_file(path).map_err(|e| out_err(path, e))
     }
 
     /// Writes an 8-bit sRGB PNG after scaling by `exposure` and clamping.

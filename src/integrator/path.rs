@@ -114,6 +114,12 @@ fn shadow(
 ) -> Rgb {
     let mut tr = Rgb::ONE;
     let mut left = dist;
+    // Each pass-through interface moves the origin off the line by the ray offset; re-aim at the
+    // fixed end point so that the ray still stops short of the light. (Only shortening the
+    // remaining length let the end creep past an area light within ~10⁴ offsets of an interface,
+    // and the light itself then blocked the shadow ray.)
+    let end = if dist.is_finite() { Some(o + d * dist) } else { None };
+    let mut d = d;
     for _ in 0..64 {
         let hit = scene.intersect(o, d, left);
         let t = hit.map_or(left, |h| h.t);
@@ -130,23 +136,37 @@ fn shadow(
         }
         medium = shape.medium_after(medium, -d, d, hit.ng);
         o = offset_origin(hit.p, hit.ng, d);
-        left -= t;
-        if left <= 0.0 {
-            return tr;
+        match end {
+            Some(end) => {
+                let to_end = end - o;
+                left = to_end.length();
+                if left <= 0.0 || to_end.dot(d) <= 0.0 {
+                    return tr;
+                }
+                d = to_end / left;
+            }
+            None => left = f32::INFINITY,
         }
     }
     Rgb::ZERO
 }
 
-/// Power-heuristic weight of a strategy with density `a` against one with density `b`.
+/// Power-heuristic weight of a strategy with density `a` against one with density `b`, written
+/// as 1/(1 + (b/a)²) so that large densities do not overflow (the two weights of a pair always
+/// sum to one).
 #[inline]
 fn power_heuristic(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 && (a2 + b2).is_finite() { a2 / (a2 + b2) } else { 1.0 }
+    if a.is_nan() || a <= 0.0 {
+        return 0.0;
+    }
+    let r = b / a;
+    if r.is_finite() { 1.0 / (1.0 + r * r) } else { 0.0 }
 }
 
 /// Next-event estimate at `p`: `f(wi)` is the BSDF·cos or phase function towards `wi`, and
-/// `pdf(wi)` the solid-angle density with which the path itself samples `wi` (for the MIS weight).
+/// `pdf(wi)` the solid-angle density with which the path itself samples `wi` (for the MIS weight;
+/// pass `|_| 0.0` at the path's last vertex, whose sampled direction is never followed, so that
+/// next-event estimation takes the whole share).
 fn next_event(
     scene: &Scene,
     lights: &LightSampler,
@@ -209,6 +229,8 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
     // direction taken, for the MIS weight of an emitter the path reaches.
     let mut scattered_from: Option<(Vec3, f32)> = None;
     for depth in 0..pass.max_depth {
+        // The direction sampled at the last vertex is never followed.
+        let last = depth + 1 == pass.max_depth;
         let hit = scene.intersect(o, d, f32::INFINITY);
         if let Some(id) = medium {
             let m = &scene.media[id as usize];
@@ -229,7 +251,7 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
                         medium,
                         &mut s,
                         |wi| Rgb::splat(phase.eval(d_in, wi)),
-                        |wi| phase.eval(d_in, wi),
+                        |wi| if last { 0.0 } else { phase.eval(d_in, wi) },
                     );
                 beta *= sigma_s;
                 let ps = phase.sample(d, s.next_2d());
@@ -280,7 +302,7 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
                     medium,
                     &mut s,
                     |wi| if wi.dot(ng) <= 0.0 { Rgb::ZERO } else { f * wi.dot(ns).max(0.0) },
-                    pdf,
+                    |wi| if last { 0.0 } else { pdf(wi) },
                 );
             let wi = Frame::new(ns).to_world(sample_cosine_hemisphere(s.next_2d()));
             if wi.dot(ng) <= 0.0 {
