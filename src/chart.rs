@@ -133,40 +133,22 @@ impl Chart {
         let map = move |(x, y): (f64, f64)| {
             (px0 + (x - x0) / (x1 - x0) * (px1 - px0), py0 + (y - y0) / (y1 - y0) * (py1 - py0))
         };
-        for (v, labelled) in ticks(x0, x1) {
-            let (x, _) = map((v.log10(), y0));
-            prims.push(Prim::Line {
-                a: (x, py0),
-                b: (x, py1),
-                color: GRID,
-                width: 1.0,
-                dashed: false,
-            });
+        // Grid lines and labels: vertical lines for x ticks, horizontal ones for y ticks.
+        let x_ticks = ticks(x0, x1).into_iter().map(|(v, l)| (v, l, true));
+        for (v, labelled, vertical) in
+            x_ticks.chain(ticks(y0, y1).into_iter().map(|(v, l)| (v, l, false)))
+        {
+            let (a, b, label_at, anchor) = if vertical {
+                let (x, _) = map((v.log10(), y0));
+                ((x, py0), (x, py1), (x, py0 + 8.0), Anchor::Middle)
+            } else {
+                let (_, y) = map((x0, v.log10()));
+                ((px0, y), (px1, y), (px0 - 8.0, y - TEXT / 2.0), Anchor::End)
+            };
+            prims.push(Prim::Line { a, b, color: GRID, width: 1.0, dashed: false });
             if labelled {
-                prims.push(Prim::Text {
-                    at: (x, py0 + 8.0),
-                    text: tick_label(v),
-                    anchor: Anchor::Middle,
-                    vertical: false,
-                });
-            }
-        }
-        for (v, labelled) in ticks(y0, y1) {
-            let (_, y) = map((x0, v.log10()));
-            prims.push(Prim::Line {
-                a: (px0, y),
-                b: (px1, y),
-                color: GRID,
-                width: 1.0,
-                dashed: false,
-            });
-            if labelled {
-                prims.push(Prim::Text {
-                    at: (px0 - 8.0, y - TEXT / 2.0),
-                    text: tick_label(v),
-                    anchor: Anchor::End,
-                    vertical: false,
-                });
+                let text = tick_label(v);
+                prims.push(Prim::Text { at: label_at, text, anchor, vertical: false });
             }
         }
         let frame = [(px0, py0), (px1, py0), (px1, py1), (px0, py1), (px0, py0)];

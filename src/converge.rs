@@ -603,11 +603,9 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
         Series { label, settings: s }
     };
     Ok(match name {
-        "estimate" => ["beam", "point"]
+        "estimate" => [VolumeEstimate::Beam, VolumeEstimate::Point]
             .iter()
-            .map(|e| {
-                with(e.to_string(), &|s| s.volume_estimate = e.parse().expect("known estimate"))
-            })
+            .map(|&e| with(e.name().to_string(), &|s| s.volume_estimate = e))
             .collect(),
         "alpha" => [0.5, 2.0 / 3.0, 0.9]
             .iter()

@@ -492,11 +492,6 @@ fn converge(args: ConvergeArgs) -> Result<()> {
     if series.is_empty() {
         series.push(converge::Series { label: "scene settings".into(), settings: base.clone() });
     }
-    for s in &series {
-        if let Err(e) = s.settings.validate() {
-            bail!("series `{}`: {}: {}", s.label, e.key, e.message);
-        }
-    }
     let stem = args.scene.file_stem().unwrap_or("scene".as_ref()).to_string_lossy().to_string();
     let prefix = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("converge-{stem}")));
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {

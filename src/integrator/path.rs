@@ -191,26 +191,13 @@ fn next_event(
 
 /// MIS weight of reaching an emitting shape at `hit` (seen from direction `wo`) by a direction
 /// sampled with density `pdf_dir` at `from`, against next-event estimation.
-fn emission_weight(
-    scene: &Scene,
-    lights: &LightSampler,
-    hit: &Hit,
-    wo: Vec3,
-    from: Vec3,
-    pdf_dir: f32,
-) -> f32 {
-    let (shape, q, ng) = (hit.tag, hit.p, hit.ng);
-    let Some((li, area)) = scene.lights.iter().enumerate().find_map(|(i, l)| match l {
-        Light::Area { shape: s, emitter, .. } if *s == shape => Some((i, emitter.area())),
-        _ => None,
-    }) else {
-        return 1.0;
-    };
-    let cos_l = wo.dot(ng).abs();
+fn emission_weight(lights: &LightSampler, hit: &Hit, wo: Vec3, from: Vec3, pdf_dir: f32) -> f32 {
+    let Some((li, area)) = lights.area_light(hit.tag) else { return 1.0 };
+    let cos_l = wo.dot(hit.ng).abs();
     if cos_l <= 0.0 || area <= 0.0 {
         return 1.0;
     }
-    let p_l = lights.prob(li) * (q - from).length_squared() / (cos_l * area);
+    let p_l = lights.prob(li) * (hit.p - from).length_squared() / (cos_l * area);
     power_heuristic(pdf_dir, p_l)
 }
 
@@ -276,7 +263,7 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
                 if count_emission {
                     l += beta * le;
                 } else if let Some((from, pdf_dir)) = scattered_from {
-                    let w = emission_weight(scene, lights, &hit, wo, from, pdf_dir);
+                    let w = emission_weight(lights, &hit, wo, from, pdf_dir);
                     l += beta * le * w;
                 }
             }

@@ -59,7 +59,11 @@ pub fn render(
     let mut image = vec![Rgb::ZERO; (width * height) as usize];
     let nonfinite = AtomicU64::new(0);
     let mut light_paths = 0u64;
-    let mut pixel_stats = OriginalState::new((width * height) as usize, r1, settings.alpha);
+    // The original progression's per-pixel statistics, and a spare copy that an iteration updates
+    // so that an interrupted one leaves the statistics untouched (empty otherwise).
+    let stats_len = if original { (width * height) as usize } else { 0 };
+    let mut pixel_stats = OriginalState::new(stats_len, r1, settings.alpha);
+    let mut next_stats = OriginalState::new(stats_len, r1, settings.alpha);
     let mut last: Option<RenderInfo> = None;
     let make_info = |iterations, light_paths, radius, volume_radius, elapsed| RenderInfo {
         iterations,
@@ -144,14 +148,20 @@ pub fn render(
                 };
                 if original {
                     let paths = light_paths + settings.photons;
-                    let mut next = OriginalState::new(0, r1, settings.alpha);
-                    next.pixels.clone_from(&pixel_stats.pixels);
+                    next_stats.pixels.copy_from_slice(&pixel_stats.pixels);
                     if !gather_pass(
-                        scene, &maps, &camera, &mut next, paths, stop, &nonfinite, &mut image,
+                        scene,
+                        &maps,
+                        &camera,
+                        &mut next_stats,
+                        paths,
+                        stop,
+                        &nonfinite,
+                        &mut image,
                     ) {
                         break;
                     }
-                    pixel_stats = next;
+                    std::mem::swap(&mut pixel_stats, &mut next_stats);
                 } else if !render_pass(scene, &maps, &camera, stop, &nonfinite, &mut image) {
                     break;
                 }

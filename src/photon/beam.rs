@@ -156,29 +156,19 @@ impl BeamMap {
                 .map(|(i, p)| (self.index(self.cell_of(p.p)) as u32, i as u32)),
         );
         order.par_sort_unstable();
-        match thinning {
-            None => self.photons.extend(order.iter().map(|&(_, i)| {
+        // `order` is sorted by cell: each run of equal keys is one cell's photons.
+        for run in order.chunk_by(|a, b| a.0 == b.0) {
+            let keep = thinning.map_or(1.0, |t| (t.budget as f64 / run.len() as f64).min(1.0));
+            for &(_, i) in run {
                 let p = &photons[i as usize];
-                VolumePhoton { beta: weight(p), ..*p }
-            })),
-            Some(t) => {
-                // `order` is sorted by cell: each run of equal keys is one cell's photons.
-                for run in order.chunk_by(|a, b| a.0 == b.0) {
-                    let n = run.len();
-                    let keep = (t.budget as f64 / n as f64).min(1.0);
-                    for &(_, i) in run {
-                        let p = &photons[i as usize];
-                        if keep < 1.0 {
-                            let u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64)
-                                .next_f32() as f64;
-                            if u >= keep {
-                                continue;
-                            }
-                        }
-                        let beta = weight(p) * (1.0 / keep) as f32;
-                        self.photons.push(VolumePhoton { beta, ..*p });
+                if let Some(t) = thinning.filter(|_| keep < 1.0) {
+                    let mut u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64);
+                    if u.next_f32() as f64 >= keep {
+                        continue;
                     }
                 }
+                let beta = weight(p) * (1.0 / keep) as f32;
+                self.photons.push(VolumePhoton { beta, ..*p });
             }
         }
         self.order = order;

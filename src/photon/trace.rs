@@ -20,6 +20,8 @@ const CHUNK: u64 = 4096;
 pub struct LightSampler {
     cdf: Vec<f32>,
     total: f32,
+    /// For each shape, the index of its area light and that light's area, if it emits.
+    area_lights: Vec<Option<(usize, f32)>>,
 }
 
 impl LightSampler {
@@ -34,7 +36,18 @@ impl LightSampler {
                 total
             })
             .collect();
-        Self { cdf, total }
+        let mut area_lights = vec![None; scene.shapes.len()];
+        for (i, l) in scene.lights.iter().enumerate() {
+            if let crate::scene::light::Light::Area { shape, emitter, .. } = l {
+                area_lights[*shape as usize] = Some((i, emitter.area()));
+            }
+        }
+        Self { cdf, total, area_lights }
+    }
+
+    /// The area light of shape `shape` and its area, if the shape emits.
+    pub fn area_light(&self, shape: u32) -> Option<(usize, f32)> {
+        self.area_lights.get(shape as usize).copied().flatten()
     }
 
     /// True if no light emits anything.

@@ -25,6 +25,30 @@ fn image_mean(scene: &Scene, settings: &RenderSettings) -> f64 {
     img.mean()
 }
 
+/// One furnace configuration rendered once per seed.
+struct Run {
+    estimate: VolumeEstimate,
+    integrator: Integrator,
+    r: f64,
+    photons: u64,
+    iterations: u64,
+}
+
+impl Run {
+    /// The image mean of each seed's render.
+    fn means(&self, scene: &Scene, seeds: std::ops::Range<u64>) -> Vec<f64> {
+        seeds
+            .map(|seed| {
+                let mut s = volume_settings(self.estimate, self.r, seed);
+                s.photons = self.photons;
+                s.iterations = Some(self.iterations);
+                s.integrator = self.integrator;
+                image_mean(scene, &s)
+            })
+            .collect()
+    }
+}
+
 /// Largest cosine-weighted bias of a furnace pixel mean (see `white_furnace_with_media_for_both_
 /// estimators` in media.rs): B = L_e σ_t r / (2 cos θ_max) e^{−σ_t (1 − r)}.
 fn furnace_bias(le: f64, sigma_t: f64, r: f64) -> f64 {
@@ -56,15 +80,8 @@ fn furnace_holds_at_extreme_thickness_and_anisotropy() {
             (VolumeEstimate::Point, Integrator::PhotonMapping),
             (VolumeEstimate::Beam, Integrator::Path),
         ] {
-            let xs: Vec<f64> = (0..seeds)
-                .map(|seed| {
-                    let mut s = volume_settings(estimate, r, seed);
-                    s.photons = photons;
-                    s.iterations = Some(iterations);
-                    s.integrator = integrator;
-                    image_mean(&scene, &s)
-                })
-                .collect();
+            let run = Run { estimate, integrator, r, photons, iterations };
+            let xs = run.means(&scene, 0..seeds);
             let bias = match integrator {
                 Integrator::Path => 0.0,
                 Integrator::PhotonMapping => furnace_bias(le as f64, sigma_s as f64, r),
@@ -159,15 +176,8 @@ fn albedo_0999_photon_mapping_and_path_tracing_match_an_analog_walk() {
             (VolumeEstimate::Point, Integrator::PhotonMapping),
             (VolumeEstimate::Beam, Integrator::Path),
         ] {
-            let xs: Vec<f64> = (0..seeds)
-                .map(|seed| {
-                    let mut s = volume_settings(estimate, r, 100 + seed);
-                    s.photons = photons;
-                    s.iterations = Some(iterations);
-                    s.integrator = integrator;
-                    image_mean(&scene, &s)
-                })
-                .collect();
+            let run = Run { estimate, integrator, r, photons, iterations };
+            let xs = run.means(&scene, 100..100 + seeds);
             let bias = if integrator == Integrator::Path { 0.0 } else { bias };
             assert_two_agree(
                 &format!(
