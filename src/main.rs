@@ -421,15 +421,23 @@ fn bench(args: BenchArgs) -> Result<()> {
     let scene = load_scene(&path, &args.overrides)?;
     let mut o = args.overrides.clone();
     o.iterations = o.iterations.or(Some(8));
-    let settings = apply(&scene.settings, &o)?;
+    let mut settings = apply(&scene.settings, &o)?;
+    let media = !scene.media.is_empty() && settings.integrator == Integrator::PhotonMapping;
+    settings.time_volume_estimate = media;
     let pool = thread_pool(o.threads)?;
     let stop = AtomicBool::new(false);
-    let (mut photon_s, mut camera_s, mut stored, mut stored_volume) = (0.0, 0.0, 0u64, 0u64);
+    // Seconds summed over the timed iterations: photon pass, all maps, volume map, camera pass,
+    // volume estimates in the camera pass.
+    let mut t = [0.0f64; 5];
+    let (mut stored, mut stored_volume) = (0u64, 0u64);
     let mut on_iteration = |s: &Status| {
         // The first iteration warms caches and the allocator; time the rest.
         if s.iteration() > 1 {
-            photon_s += s.photon_seconds;
-            camera_s += s.camera_seconds;
+            t[0] += s.photon_seconds;
+            t[1] += s.map_seconds;
+            t[2] += s.volume_map_seconds;
+            t[3] += s.camera_seconds;
+            t[4] += s.volume_estimate_seconds.unwrap_or(0.0);
             stored += s.photons_stored;
             stored_volume += s.volume_photons_stored;
         }
@@ -439,6 +447,8 @@ fn bench(args: BenchArgs) -> Result<()> {
     if timed == 0 {
         bail!("--iterations must be at least 2 for a benchmark (the first is a warm-up)");
     }
+    let [photon_s, map_s, volume_map_s, camera_s, volume_s] = t;
+    let per_it = |x: f64| x / timed as f64;
     let [w, h] = scene.camera.resolution;
     let paths = (timed * settings.photons) as f64;
     let pixels = (timed * w as u64 * h as u64) as f64;
@@ -455,18 +465,40 @@ fn bench(args: BenchArgs) -> Result<()> {
         paths / photon_s,
         stored as f64 / photon_s,
         stored_volume as f64 / photon_s,
-        photon_s / timed as f64
+        per_it(photon_s)
     );
     println!(
-        "| camera pass (trace + {}) | {:.0} camera paths/s | {:.4} |",
-        if scene.media.is_empty() {
-            "surface estimate".to_string()
-        } else {
-            format!("surface and {} estimates", settings.volume_estimate.name())
-        },
-        pixels / camera_s,
-        camera_s / timed as f64
+        "| … building the surface photon map | {:.0} photons/s | {:.4} |",
+        stored as f64 / (map_s - volume_map_s),
+        per_it(map_s - volume_map_s)
     );
+    let estimate = settings.volume_estimate.name();
+    if media {
+        println!(
+            "| … building the volume photon map ({estimate} estimate) | {:.0} photons/s | {:.4} |",
+            stored_volume as f64 / volume_map_s,
+            per_it(volume_map_s)
+        );
+    }
+    println!(
+        "| camera pass (trace + {}) | {:.0} camera paths/s | {:.4} |",
+        if media { format!("surface and {estimate} estimates") } else { "surface estimate".into() },
+        pixels / camera_s,
+        per_it(camera_s)
+    );
+    if media {
+        println!(
+            "| … in {estimate} estimates (thread time / threads) | | {:.4} |",
+            per_it(volume_s)
+        );
+        let share = volume_map_s + volume_s;
+        println!(
+            "volume estimate ({estimate}: map build + estimates): {:.4} s of {:.4} s per iteration ({:.0} %)",
+            per_it(share),
+            per_it(photon_s + camera_s),
+            100.0 * share / (photon_s + camera_s)
+        );
+    }
     Ok(())
 }
 

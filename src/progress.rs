@@ -16,6 +16,14 @@ pub struct Status<'a> {
     pub volume_photons_stored: u64,
     /// Seconds the last iteration spent in the photon pass (tracing and building the maps).
     pub photon_seconds: f64,
+    /// Of `photon_seconds`, the seconds spent building the photon maps from the stored photons.
+    pub map_seconds: f64,
+    /// Of `map_seconds`, the seconds spent building the volume photon map (beam map or point grid).
+    pub volume_map_seconds: f64,
+    /// With `RenderSettings::time_volume_estimate`, the seconds the last camera pass spent in
+    /// volume estimates, summed over threads and divided by the thread count (the share of the
+    /// camera pass's wall time, since every thread works through the pass).
+    pub volume_estimate_seconds: Option<f64>,
     /// Seconds the last iteration spent in the camera pass.
     pub camera_seconds: f64,
     /// The accumulated film.

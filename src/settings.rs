@@ -163,6 +163,10 @@ pub struct RenderSettings {
     /// by Russian roulette (kept with probability budget/count, power divided by it), which bounds
     /// the cost of a beam query where photons are dense without changing the expected image.
     pub beam_cell_budget: Option<u32>,
+    /// Measure the time the camera pass spends in volume estimates and report it in
+    /// [`Status::volume_estimate_seconds`](crate::progress::Status) (for benchmarks: two clock
+    /// reads per estimate). Not a scene-file key.
+    pub time_volume_estimate: bool,
 }
 
 /// Most light paths per iteration: each stores photons of 48 bytes, several per path.
@@ -189,6 +193,7 @@ impl Default for RenderSettings {
             integrator: Integrator::PhotonMapping,
             progression: Progression::Probabilistic,
             beam_cell_budget: None,
+            time_volume_estimate: false,
         }
     }
 }

@@ -44,6 +44,31 @@ pub struct CameraPass {
     pub volume: Gather,
     /// Beam or point estimate in media.
     pub estimate: VolumeEstimate,
+    /// Add the time spent in volume estimates to this thread's [`take_volume_time`] counter.
+    pub time_volume: bool,
+}
+
+thread_local! {
+    /// Nanoseconds this thread spent in volume estimates (when `CameraPass::time_volume`).
+    static VOLUME_NANOS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// Returns and resets the time the calling thread spent in volume estimates, in seconds.
+pub fn take_volume_time() -> f64 {
+    VOLUME_NANOS.with(|c| c.replace(0)) as f64 * 1e-9
+}
+
+/// Runs `f`, adding its duration to this thread's volume-estimate time if `on`.
+#[inline]
+fn timed<T>(on: bool, f: impl FnOnce() -> T) -> T {
+    if !on {
+        return f();
+    }
+    let start = std::time::Instant::now();
+    let out = f();
+    let ns = start.elapsed().as_nanos() as u64;
+    VOLUME_NANOS.with(|c| c.set(c.get() + ns));
+    out
 }
 
 /// Radiance along one eye path for pixel (x, y).
@@ -84,7 +109,10 @@ pub(crate) fn trace_eye(
                     let tr = m.segment(o, d, t_max, &mut s);
                     let volume = &pass.volume;
                     let seg = EyeSegment { o, w: d, t_max };
-                    l += beta * beam_radiance(maps.volume_beams, m, id, &seg, &tr, volume);
+                    l += beta
+                        * timed(pass.time_volume, || {
+                            beam_radiance(maps.volume_beams, m, id, &seg, &tr, volume)
+                        });
                     beta *= tr.at(t_max);
                 }
                 VolumeEstimate::Point => {
@@ -92,7 +120,11 @@ pub(crate) fn trace_eye(
                     beta *= flight.weight;
                     if flight.scattered {
                         let x = o + d * flight.t;
-                        l += beta * point_radiance(maps.volume_points, m, id, x, d, &pass.volume);
+                        let points = maps.volume_points;
+                        l += beta
+                            * timed(pass.time_volume, || {
+                                point_radiance(points, m, id, x, d, &pass.volume)
+                            });
                         break;
                     }
                 }

@@ -97,6 +97,7 @@ pub fn render(
         let r_vol = radius(i, r1_vol, settings.volume_alpha, settings.volume_dimension);
         let t0 = Instant::now();
         let t1;
+        let (mut t_traced, mut t_surface) = (t0, t0);
         match settings.integrator {
             Integrator::PhotonMapping => {
                 let pass = PhotonPass {
@@ -108,8 +109,10 @@ pub fn render(
                 if !trace_photons(scene, &lights, &pass, stop, &mut photons) {
                     break;
                 }
+                t_traced = Instant::now();
                 let r_build = if original { pixel_stats.max_radius() } else { r };
                 surface_map.build(&photons.surface, r_build as f32);
+                t_surface = Instant::now();
                 match settings.volume_estimate {
                     _ if original => {}
                     VolumeEstimate::Beam => {
@@ -118,9 +121,13 @@ pub fn render(
                             seed: settings.seed,
                             iteration: i,
                         });
-                        volume_beams.build(&photons.volume, r_vol as f32, thinning, |p| {
-                            p.beta * scene.media[p.medium as usize].sigma_s(p.p)
-                        })
+                        volume_beams.build(
+                            &photons.volume,
+                            r_vol as f32,
+                            thinning,
+                            Some(&scene.camera),
+                            |p| p.beta * scene.media[p.medium as usize].sigma_s(p.p),
+                        );
                     }
                     VolumeEstimate::Point => volume_points.build(&photons.volume, r_vol as f32),
                 }
@@ -140,6 +147,7 @@ pub fn render(
                         inv_paths: 1.0 / settings.photons as f32,
                     },
                     estimate: settings.volume_estimate,
+                    time_volume: settings.time_volume_estimate,
                 };
                 let maps = Maps {
                     surface: &surface_map,
@@ -176,6 +184,10 @@ pub fn render(
             }
         }
         let t2 = Instant::now();
+        let volume_estimate_seconds = settings.time_volume_estimate.then(|| {
+            let threads = rayon::current_num_threads() as f64;
+            rayon::broadcast(|_| super::camera::take_volume_time()).iter().sum::<f64>() / threads
+        });
         if original {
             film.replace(&image);
         } else {
@@ -192,6 +204,9 @@ pub fn render(
             photons_stored: photons.surface.len() as u64,
             volume_photons_stored: photons.volume.len() as u64,
             photon_seconds: (t1 - t0).as_secs_f64(),
+            map_seconds: (t1 - t_traced).as_secs_f64(),
+            volume_map_seconds: (t1 - t_surface).as_secs_f64(),
+            volume_estimate_seconds,
             camera_seconds: (t2 - t1).as_secs_f64(),
             film: &film,
             info: &info,

@@ -1,43 +1,77 @@
 //! Beam queries over volume photons: which photons lie within the query radius of a ray segment.
-//! A query costs the cells its segment crosses plus the photons in them — about the photons it
-//! finds, not the photons stored.
+//! A query costs about the photons it finds, not the photons stored.
 //!
-//! The structure is a dense uniform grid over the photons' bounds, walked along the ray with a
-//! 3-D DDA (Amanatides & Woo 1987). Every photon is entered in each cell that its kernel sphere
-//! overlaps (at most 27). Cells are numbered x-fastest and their entries stored in that order, so
-//! the cells a ray visits lie close together in memory (a hashed grid was 2–3× slower here: every
-//! cell visit was a cache miss). A query visits the cells the segment passes through, each for its own interval
-//! [t_in, t_out) of the ray, and takes a photon from a cell only if its projection t_p onto the ray
-//! falls in that interval. The point of the ray nearest a photon lies in exactly one visited cell,
-//! and a photon within the radius overlaps that cell, so every photon is found exactly once without
-//! any bookkeeping; the order of the photons found depends only on the ray, so the sums are the
-//! same whatever the thread count.
+//! Two structures over the same photons answer the same question:
 //!
-//! Cells are at least twice the radius and hold a few photons on average; buffers are reused
-//! between iterations.
+//! - **View bins**, for eye segments on a line through a pinhole camera's eye — in practice every
+//!   segment of an eye path before its first change of direction, which is nearly every beam query
+//!   in a scene viewed through fog. The image plane is cut into square bins a few pixels wide, and
+//!   every photon is entered in each bin its kernel sphere's projection overlaps. A ray through the
+//!   eye meets the sphere only where it pierces the image plane inside that projection, so the
+//!   photons the query must test are the few in one bin: no walk, no corridor of cells. Segments
+//!   that start at a pass-through interface are kept if their line passes within a small margin
+//!   of the eye (the spheres are entered grown by that margin).
+//! - A **dense uniform grid** over the photons' bounds, walked along the ray with a 3-D DDA
+//!   (Amanatides & Woo 1987), for every other segment (after refraction or reflection, from a
+//!   thin-lens or orthographic camera, or when the view bins would hold too many entries). Every
+//!   photon is entered in each cell its kernel sphere overlaps. A query visits the cells the
+//!   segment passes through, each for its own interval [t_in, t_out) of the ray, and takes a
+//!   photon from a cell only if its projection t_p onto the ray falls in that interval: the point
+//!   of the ray nearest a photon lies in exactly one visited cell, and a photon within the radius
+//!   overlaps that cell, so every photon is found exactly once without any bookkeeping.
+//!
+//! Both find exactly the photons with 0 < t_p < t_max and distance below the radius (tested). The
+//! order in which a query finds photons depends only on the ray, so sums are the same whatever the
+//! thread count. Cells are numbered x-fastest and bins row by row, and their entries are stored
+//! in that order, with the photons sorted by the bin they project to (or, without view bins, the
+//! cell they lie in), so a query reads memory that lies close together (a hashed grid was 2–3×
+//! slower: every cell visit was a cache miss). Both are built by parallel counting sorts whose
+//! result does not depend on the thread count; buffers are reused between iterations.
 
 use super::VolumePhoton;
 use crate::rng::{Purpose, Sampler};
+use crate::scene::camera::{Camera, Projection};
 use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-/// Mean photons per cell the cell size aims for when the radius is small.
+/// Mean photons per cell the grid's cell size aims for when the radius is small, when the grid
+/// serves every query …
 const PHOTONS_PER_CELL: f32 = 4.0;
+
+/// … and when it only serves the segments the view bins cannot (measured on the volumetric
+/// caustic: coarser cells build faster and cost those few queries little; docs/performance.md).
+const PHOTONS_PER_FALLBACK_CELL: f32 = 64.0;
 
 /// Most cells in the grid (4 bytes each in the cell table).
 const MAX_CELLS: f32 = (1 << 22) as f32;
+
+/// Side of a view bin in units of the median radius (in pixels) of the photons' projected spheres.
+const BIN_PER_FOOTPRINT: f32 = 1.0;
+
+/// Largest side of a view bin, in pixels.
+const MAX_BIN_PIXELS: f32 = 64.0;
+
+/// The view bins are skipped (the grid serves every query) when they would hold more than this
+/// many entries per photon on average — a camera inside a dense cloud of photons, for instance.
+const MAX_VIEW_ENTRIES_PER_PHOTON: usize = 32;
+
+/// How far (in units of the radius) a segment's line may pass from the eye and still use the
+/// view bins: it covers the offsets of ray origins at pass-through interfaces.
+const VIEW_LINE_MARGIN: f32 = 0.01;
 
 /// Russian-roulette thinning of dense photon cells, which bounds the cost of a beam query where
 /// photons crowd (near a light inside a medium, in a volumetric caustic) without changing the
 /// expected estimate.
 ///
-/// A photon whose centre lies in a cell holding n > `budget` photons is kept with probability
-/// p = budget / n, and its power is divided by p. The decision uses a random number of its own,
+/// Space is cut into thinning cells (cubes of the size the beam grid's cells have when the grid
+/// serves every query: about `PHOTONS_PER_CELL` photons each on average, and at least twice the
+/// radius). A photon whose centre lies in a thinning cell holding n > `budget` photons is kept
+/// with probability p = budget / n, and its power is divided by p. The decision uses a random number of its own,
 /// keyed by (seed, iteration, photon index), independent of everything else once the photons are
 /// placed; so, given the photons, its expected contribution to any query is exactly its
 /// contribution without thinning, and the estimate stays unbiased (its variance grows where photons
-/// were dropped). A cell then holds about `budget` photons of its own, and a query visits at most
-/// the photons entered from 27 such cells per cell.
+/// were dropped). A cell then holds about `budget` photons of its own, which bounds the photons a
+/// query tests per unit length of its segment.
 #[derive(Clone, Copy, Debug)]
 pub struct Thinning {
     /// Photons a cell may hold before it is thinned.
@@ -48,24 +82,340 @@ pub struct Thinning {
     pub iteration: u64,
 }
 
+/// An inclusive box of buckets (empty when a coordinate of the first corner exceeds the second's).
+type Span = (IVec3, IVec3);
+
+/// The empty span.
+const NO_SPAN: Span = (IVec3::ONE, IVec3::ZERO);
+
+/// Bands of buckets filled in parallel (a constant: the result does not depend on it).
+const BANDS: usize = 4;
+
+/// Photon entries grouped by bucket (a grid cell or a view bin): `start[b]..start[b + 1]` are
+/// bucket b's entries, each the photon's position (read by every test) and its index.
+#[derive(Default)]
+struct Entries {
+    start: Vec<u32>,
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    idx: Vec<u32>,
+}
+
+/// A query ray, splatted for four-wide tests.
+struct Lanes {
+    o: Vec3,
+    d: Vec3,
+    r2: f32,
+    ox: Vec4,
+    oy: Vec4,
+    oz: Vec4,
+    dx: Vec4,
+    dy: Vec4,
+    dz: Vec4,
+}
+
+impl Lanes {
+    fn new(o: Vec3, d: Vec3, r: f32) -> Self {
+        Self {
+            o,
+            d,
+            r2: r * r,
+            ox: Vec4::splat(o.x),
+            oy: Vec4::splat(o.y),
+            oz: Vec4::splat(o.z),
+            dx: Vec4::splat(d.x),
+            dy: Vec4::splat(d.y),
+            dz: Vec4::splat(d.z),
+        }
+    }
+}
+
+/// Calls `f(bucket, i)` for every bucket of every span `spans[i]` that lies in the z-slices
+/// `z0..=z1` of a grid of `dims` numbered x-fastest, in the order of the spans.
+#[inline(always)]
+fn each_in_slices(spans: &[Span], dims: IVec3, z0: i32, z1: i32, mut f: impl FnMut(usize, u32)) {
+    for (i, (a, b)) in spans.iter().enumerate() {
+        let i = i as u32;
+        for z in a.z.max(z0)..=b.z.min(z1) {
+            for y in a.y..=b.y {
+                let row = (dims.x * (y + dims.y * z)) as usize;
+                for x in a.x..=b.x {
+                    f(row + x as usize, i);
+                }
+            }
+        }
+    }
+}
+
+impl Entries {
+    /// Fills the buckets, a grid of `dims` numbered x-fastest, by a counting sort: photon i
+    /// enters every bucket of `spans[i]`. Each bucket lists its photons in index order, so the
+    /// result does not depend on the thread count. Bands of z-slices are counted and scattered in
+    /// parallel; each band sees every span, clipped to its slices.
+    fn fill(&mut self, dims: IVec3, photons: &[VolumePhoton], spans: &[Span]) {
+        let slab = (dims.x * dims.y) as usize;
+        let buckets = slab * dims.z as usize;
+        let slices = (dims.z as usize).div_ceil(BANDS);
+        let band = slab * slices;
+        self.start.clear();
+        self.start.resize(buckets + 1, 0);
+        self.start[1..].par_chunks_mut(band).enumerate().for_each(|(k, count)| {
+            each_in_slices(
+                spans,
+                dims,
+                (k * slices) as i32,
+                ((k + 1) * slices) as i32 - 1,
+                |b, _| count[b - k * band] += 1,
+            );
+        });
+        for b in 0..buckets {
+            self.start[b + 1] += self.start[b];
+        }
+        // Scatter the photon indices, each band into its own part of the entries.
+        self.idx.resize(self.start[buckets] as usize, 0);
+        let mut parts = Vec::with_capacity(BANDS);
+        let mut rest = &mut self.idx[..];
+        for k in 0..buckets.div_ceil(band) {
+            let (lo, hi) = (k * band, ((k + 1) * band).min(buckets));
+            let (part, tail) = rest.split_at_mut((self.start[hi] - self.start[lo]) as usize);
+            parts.push((k, part));
+            rest = tail;
+        }
+        let start = &self.start;
+        parts.into_par_iter().for_each(|(k, out)| {
+            let lo = k * band;
+            let hi = (lo + band).min(buckets);
+            let mut cursor: Vec<u32> = start[lo..hi].iter().map(|&s| s - start[lo]).collect();
+            each_in_slices(
+                spans,
+                dims,
+                (k * slices) as i32,
+                ((k + 1) * slices) as i32 - 1,
+                |b, i| {
+                    let c = &mut cursor[b - lo];
+                    out[*c as usize] = i;
+                    *c += 1;
+                },
+            );
+        });
+        // Gather the positions (sequential writes, in parallel).
+        let n = self.idx.len();
+        for v in [&mut self.x, &mut self.y, &mut self.z] {
+            v.resize(n, 0.0);
+        }
+        const CHUNK: usize = 1 << 14;
+        self.idx
+            .par_chunks(CHUNK)
+            .zip(self.x.par_chunks_mut(CHUNK))
+            .zip(self.y.par_chunks_mut(CHUNK))
+            .zip(self.z.par_chunks_mut(CHUNK))
+            .for_each(|(((idx, x), y), z)| {
+                for (k, &i) in idx.iter().enumerate() {
+                    let p = photons[i as usize].p;
+                    (x[k], y[k], z[k]) = (p.x, p.y, p.z);
+                }
+            });
+    }
+
+    /// Calls `f(index, t_p, d²)` for every entry of bucket `b` within the radius of the ray whose
+    /// projection t_p onto it satisfies t_p ≥ `t_lo`, t_p < `t_hi` and t_p > 0.
+    #[inline(always)]
+    fn scan(&self, b: usize, ray: &Lanes, t_lo: f32, t_hi: f32, mut f: impl FnMut(u32, f32, f32)) {
+        let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
+        let (xs, ys, zs) = (&self.x[s..e], &self.y[s..e], &self.z[s..e]);
+        let (lo, hi, r2) = (Vec4::splat(t_lo.max(0.0)), Vec4::splat(t_hi), Vec4::splat(ray.r2));
+        // Four entries at a time (SSE through glam's Vec4), the rare hits one by one.
+        let mut j = 0;
+        while j + 4 <= xs.len() {
+            let vx = Vec4::from_slice(&xs[j..j + 4]) - ray.ox;
+            let vy = Vec4::from_slice(&ys[j..j + 4]) - ray.oy;
+            let vz = Vec4::from_slice(&zs[j..j + 4]) - ray.oz;
+            let t = vx * ray.dx + vy * ray.dy + vz * ray.dz;
+            let d2 = vx * vx + vy * vy + vz * vz - t * t;
+            let mut mask = (d2.cmplt(r2) & t.cmpge(lo) & t.cmplt(hi)).bitmask();
+            while mask != 0 {
+                let k = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if t[k] > 0.0 {
+                    f(self.idx[s + j + k], t[k], d2[k].max(0.0));
+                }
+            }
+            j += 4;
+        }
+        for k in j..xs.len() {
+            let v = Vec3::new(xs[k], ys[k], zs[k]) - ray.o;
+            let t = v.dot(ray.d);
+            let d2 = v.length_squared() - t * t;
+            if d2 < ray.r2 && t >= t_lo && t < t_hi && t > 0.0 {
+                f(self.idx[s + k], t, d2.max(0.0));
+            }
+        }
+    }
+}
+
+/// Bins on the image plane of a pinhole camera, in the plane's tangent coordinates
+/// (u, v) = (x/z, y/z) of the camera frame (x right, y up, z forward).
+#[derive(Default)]
+struct ViewBins {
+    entries: Entries,
+    eye: Vec3,
+    right: Vec3,
+    up: Vec3,
+    forward: Vec3,
+    /// Lower corner of bin (0, 0), in (u, v).
+    u0: f32,
+    v0: f32,
+    inv_bin: f32,
+    nx: i32,
+    ny: i32,
+    /// Squared distance from the eye a segment's line may pass at and still use the bins.
+    margin2: f32,
+    /// Radius of the spheres entered: the query radius grown by the margin.
+    grow: f32,
+}
+
+impl ViewBins {
+    /// Sets up bins for `camera` over `photons` queried with radius `radius`; false for cameras
+    /// that are not pinholes, and when the bins would hold more than `MAX_VIEW_ENTRIES_PER_PHOTON`
+    /// entries per photon.
+    fn setup(&mut self, camera: &Camera, photons: &[VolumePhoton], radius: f32) -> bool {
+        let Projection::Perspective { tan_half_fov, lens_radius, .. } = camera.projection else {
+            return false;
+        };
+        if lens_radius > 0.0 {
+            return false;
+        }
+        let [w, h] = camera.resolution;
+        (self.eye, self.right, self.up, self.forward) =
+            (camera.position, camera.right, camera.up, camera.forward);
+        let margin = VIEW_LINE_MARGIN * radius;
+        self.margin2 = margin * margin;
+        self.grow = radius * 1.001 + margin;
+        // Pixels are square: 2 tan(fov/2) / height on both axes.
+        let pixel = 2.0 * tan_half_fov / h as f32;
+        // The median radius, in pixels, of the projections of the photons in front of the eye
+        // sets the bin size.
+        let mut depth: Vec<f32> = photons
+            .iter()
+            .step_by(photons.len().div_ceil(4096).max(1))
+            .map(|p| (p.p - self.eye).dot(self.forward))
+            .filter(|&z| z > self.grow)
+            .collect();
+        let footprint = if depth.is_empty() {
+            1.0
+        } else {
+            let n = depth.len();
+            self.grow / *depth.select_nth_unstable_by(n / 2, f32::total_cmp).1 / pixel
+        };
+        let bin_pixels = (footprint * BIN_PER_FOOTPRINT).clamp(1.0, MAX_BIN_PIXELS).round();
+        self.inv_bin = 1.0 / (bin_pixels * pixel);
+        self.nx = (w as f32 / bin_pixels).ceil() as i32;
+        self.ny = (h as f32 / bin_pixels).ceil() as i32;
+        self.u0 = -tan_half_fov * camera.aspect();
+        self.v0 = -tan_half_fov;
+        let entries: usize = photons
+            .par_iter()
+            .map(|p| {
+                self.footprint(p.p)
+                    .map_or(0, |(a, b)| (b - a + IVec3::ONE).element_product() as usize)
+            })
+            .sum();
+        entries <= MAX_VIEW_ENTRIES_PER_PHOTON * photons.len()
+    }
+
+    /// Enters `photons` in the bins (set up by `setup`).
+    fn fill(&mut self, photons: &[VolumePhoton], spans: &mut Vec<Span>) {
+        spans.clear();
+        spans.par_extend(photons.par_iter().map(|p| self.footprint(p.p).unwrap_or(NO_SPAN)));
+        // Rows of bins are the grid's z-slices, so that bands of rows are filled in parallel.
+        self.entries.fill(IVec3::new(self.nx, 1, self.ny), photons, spans);
+    }
+
+    /// The bin that `p` projects to; one past the last bin if it lies behind the eye or outside.
+    fn centre_bin(&self, p: Vec3) -> u32 {
+        let c = p - self.eye;
+        let z = c.dot(self.forward);
+        let bx = ((c.dot(self.right) / z - self.u0) * self.inv_bin).floor();
+        let by = ((c.dot(self.up) / z - self.v0) * self.inv_bin).floor();
+        if z > 0.0 && bx >= 0.0 && by >= 0.0 && bx < self.nx as f32 && by < self.ny as f32 {
+            by as u32 * self.nx as u32 + bx as u32
+        } else {
+            (self.nx * self.ny) as u32
+        }
+    }
+
+    /// The bins (inclusive corners) that the projection of the sphere of radius `grow` around `p`
+    /// overlaps, if any: the projection lies within the bounds of the camera-aligned cube around
+    /// the sphere, and only its part in front of the eye (z > 0) matters.
+    fn footprint(&self, p: Vec3) -> Option<Span> {
+        let grow = self.grow;
+        let c = p - self.eye;
+        let (x, y, z) = (c.dot(self.right), c.dot(self.up), c.dot(self.forward));
+        let (z0, z1) = (z - grow, z + grow);
+        if z1 <= 0.0 {
+            return None;
+        }
+        // Bounds of c/z over c ∈ [c0, c1], z ∈ [z0, z1] ∩ (0, ∞).
+        let range = |c0: f32, c1: f32| {
+            if z0 > 0.0 {
+                ((c0 / z0).min(c0 / z1), (c1 / z0).max(c1 / z1))
+            } else {
+                (
+                    if c0 >= 0.0 { c0 / z1 } else { f32::NEG_INFINITY },
+                    if c1 <= 0.0 { c1 / z1 } else { f32::INFINITY },
+                )
+            }
+        };
+        let to_bins = |(lo, hi): (f32, f32), origin: f32, n: i32| {
+            let (a, b) = ((lo - origin) * self.inv_bin, (hi - origin) * self.inv_bin);
+            if b < 0.0 || a >= n as f32 {
+                return None;
+            }
+            Some((a.max(0.0) as i32, (b.min(n as f32 - 1.0) as i32).min(n - 1)))
+        };
+        let (ax, bx) = to_bins(range(x - grow, x + grow), self.u0, self.nx)?;
+        let (ay, by) = to_bins(range(y - grow, y + grow), self.v0, self.ny)?;
+        Some((IVec3::new(ax, 0, ay), IVec3::new(bx, 0, by)))
+    }
+
+    /// The bin holding every photon a query along o + t d (t > 0) can find, if the segment lies on
+    /// a ray from the eye (within the margin) that pierces the image plane inside the bins.
+    #[inline]
+    fn bin(&self, o: Vec3, d: Vec3) -> Option<usize> {
+        let z = d.dot(self.forward);
+        let rel = o - self.eye;
+        if z <= 0.0 || rel.dot(d) < 0.0 || rel.cross(d).length_squared() > self.margin2 {
+            return None;
+        }
+        let bx = ((d.dot(self.right) / z - self.u0) * self.inv_bin).floor();
+        let by = ((d.dot(self.up) / z - self.v0) * self.inv_bin).floor();
+        if bx >= 0.0 && by >= 0.0 && bx < self.nx as f32 && by < self.ny as f32 {
+            Some(by as usize * self.nx as usize + bx as usize)
+        } else {
+            None
+        }
+    }
+}
+
 /// The beam-query structure.
 #[derive(Default)]
 pub struct BeamMap {
     photons: Vec<VolumePhoton>,
-    /// Cell entries, grouped by cell: the photon's position (read first) and its index.
-    entry_x: Vec<f32>,
-    entry_y: Vec<f32>,
-    entry_z: Vec<f32>,
-    entry_idx: Vec<u32>,
-    /// start[c]..start[c + 1] are cell c's entries.
-    start: Vec<u32>,
+    /// The grid's cells: cell c is bucket c.
+    grid: Entries,
     dims: IVec3,
-    cell: f32,
     inv_cell: f32,
     radius: f32,
     lo: Vec3,
-    scratch: Vec<(u32, u32)>,
-    order: Vec<(u32, u32)>,
+    /// Bins for segments on rays from the eye, when the camera is a pinhole.
+    view: ViewBins,
+    view_active: bool,
+    /// Scratch space, reused between builds.
+    keys: Vec<u32>,
+    count: Vec<u32>,
+    spans: Vec<Span>,
+    spare: Vec<VolumePhoton>,
 }
 
 impl BeamMap {
@@ -84,6 +434,11 @@ impl BeamMap {
         self.photons.is_empty()
     }
 
+    /// True if the last build made view bins (pinhole camera, not too many entries).
+    pub fn has_view_bins(&self) -> bool {
+        self.view_active
+    }
+
     /// Index of cell `c` (which must lie in the grid).
     #[inline]
     fn index(&self, c: IVec3) -> usize {
@@ -96,109 +451,142 @@ impl BeamMap {
         ((p - self.lo) * self.inv_cell).floor().as_ivec3().clamp(IVec3::ZERO, self.dims - 1)
     }
 
-    /// Rebuilds the grid over `photons` for queries of radius `radius`, storing each photon with
+    /// Rebuilds the map over `photons` for queries of radius `radius`, storing each photon with
     /// its power replaced by `weight(photon)` (the beam estimate stores β·σ_s(x_p) here, so that
-    /// σ_s is looked up once per photon rather than once per ray that finds it).
+    /// σ_s is looked up once per photon rather than once per ray that finds it). With a pinhole
+    /// `camera`, it also builds the view bins for segments on rays from its eye.
     pub fn build(
         &mut self,
         photons: &[VolumePhoton],
         radius: f32,
         thinning: Option<Thinning>,
-        weight: impl Fn(&VolumePhoton) -> crate::math::Rgb,
+        camera: Option<&Camera>,
+        weight: impl Fn(&VolumePhoton) -> crate::math::Rgb + Sync,
     ) {
         self.photons.clear();
-        self.entry_x.clear();
-        self.entry_y.clear();
-        self.entry_z.clear();
-        self.entry_idx.clear();
         self.radius = radius;
+        self.view_active = false;
         if photons.is_empty() {
             return;
         }
+        self.view_active = camera.is_some_and(|c| self.view.setup(c, photons, radius));
         let (lo, hi) = photons
-            .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.p), hi.max(p.p)));
+            .par_iter()
+            .fold(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.p), hi.max(p.p)))
+            .reduce(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (c, d)| (a.min(c), b.max(d)));
         self.lo = lo - Vec3::splat(radius);
         let extent = (hi + Vec3::splat(radius) - self.lo).max(Vec3::splat(1e-6));
         // The photons' typical spacing, from the volume holding the central 90% of them along
-        // each axis (a few stray photons far away must not make every cell huge).
-        let mut coord: Vec<f32> = Vec::with_capacity(photons.len());
+        // each axis (a few stray photons far away must not make every cell huge), estimated from
+        // an evenly strided sample.
+        let stride = photons.len().div_ceil(1 << 16);
+        let mut coord: Vec<f32> = Vec::with_capacity(photons.len() / stride + 1);
         let mut core = Vec3::ZERO;
         for axis in 0..3 {
             coord.clear();
-            coord.extend(photons.iter().map(|p| p.p[axis]));
+            coord.extend(photons.iter().step_by(stride).map(|p| p.p[axis]));
             let n = coord.len();
             let a = *coord.select_nth_unstable_by(n / 20, f32::total_cmp).1;
             let b = *coord.select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp).1;
             core[axis] = (b - a).max(radius).max(1e-6 * extent.max_element());
         }
         let volume = core.x * core.y * core.z / 0.9f32.powi(3);
-        let spacing = (PHOTONS_PER_CELL * volume / photons.len() as f32).cbrt();
         // At least twice the radius, and no more than MAX_CELLS cells in all.
         let cap = (extent.x * extent.y * extent.z / MAX_CELLS).cbrt();
-        self.cell = spacing.max(2.0 * radius).max(cap) * 1.0001;
-        self.inv_cell = 1.0 / self.cell;
+        let cell_for = |per_cell: f32| {
+            let spacing = (per_cell * volume / photons.len() as f32).cbrt();
+            spacing.max(2.0 * radius).max(cap) * 1.0001
+        };
+        let per_cell = if self.view_active { PHOTONS_PER_FALLBACK_CELL } else { PHOTONS_PER_CELL };
+        self.inv_cell = 1.0 / cell_for(per_cell);
         self.dims = (extent * self.inv_cell).ceil().as_ivec3().max(IVec3::ONE);
-        let cells = (self.dims.x * self.dims.y * self.dims.z) as usize;
-        // Enter each photon in every cell its (slightly grown) sphere overlaps.
-        let grow = radius * 1.001 + 1e-6 * extent.max_element();
-        let mut pairs = std::mem::take(&mut self.scratch);
-        pairs.clear();
-        // Keep the photons in the order of the cells their centres lie in, so that the photons a
-        // cell refers to sit together in memory. (cell, index) keys are unique: the order does
-        // not depend on the thread count.
-        let mut order = std::mem::take(&mut self.order);
-        order.clear();
-        order.extend(
+        let cells = self.dims.element_product() as usize;
+        // Photons per thinning cell: cells of the size the grid has when it serves every query
+        // (about PHOTONS_PER_CELL photons each on average), whatever the grid's own size.
+        let mut keys = std::mem::take(&mut self.keys);
+        let mut count = std::mem::take(&mut self.count);
+        if thinning.is_some() {
+            let inv = 1.0 / cell_for(PHOTONS_PER_CELL);
+            let dims = (extent * inv).ceil().as_ivec3().max(IVec3::ONE);
+            let lo = self.lo;
+            keys.clear();
+            keys.par_extend(photons.par_iter().map(|p| {
+                let c = ((p.p - lo) * inv).floor().as_ivec3().clamp(IVec3::ZERO, dims - 1);
+                (c.x + dims.x * (c.y + dims.y * c.z)) as u32
+            }));
+            count.clear();
+            count.resize(dims.element_product() as usize, 0);
+            for &k in &keys {
+                count[k as usize] += 1;
+            }
+        }
+        let counts = &count;
+        let power = |i: usize, p: &VolumePhoton, k: u32| {
+            let keep =
+                thinning.map_or(1.0, |t| (t.budget as f64 / counts[k as usize] as f64).min(1.0));
+            if let Some(t) = thinning.filter(|_| keep < 1.0) {
+                let mut u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64);
+                if u.next_f32() as f64 >= keep {
+                    return None;
+                }
+            }
+            Some(VolumePhoton { beta: weight(p) * (1.0 / keep) as f32, ..*p })
+        };
+        self.spare.clear();
+        if thinning.is_some() {
+            self.spare.par_extend(
+                photons.par_iter().zip(&keys).enumerate().filter_map(|(i, (p, &k))| power(i, p, k)),
+            );
+        } else {
             photons
-                .iter()
-                .enumerate()
-                .map(|(i, p)| (self.index(self.cell_of(p.p)) as u32, i as u32)),
-        );
-        order.par_sort_unstable();
-        // `order` is sorted by cell: each run of equal keys is one cell's photons.
-        for run in order.chunk_by(|a, b| a.0 == b.0) {
-            let keep = thinning.map_or(1.0, |t| (t.budget as f64 / run.len() as f64).min(1.0));
-            for &(_, i) in run {
-                let p = &photons[i as usize];
-                if let Some(t) = thinning.filter(|_| keep < 1.0) {
-                    let mut u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64);
-                    if u.next_f32() as f64 >= keep {
-                        continue;
-                    }
-                }
-                let beta = weight(p) * (1.0 / keep) as f32;
-                self.photons.push(VolumePhoton { beta, ..*p });
-            }
+                .par_iter()
+                .map(|p| VolumePhoton { beta: weight(p), ..*p })
+                .collect_into_vec(&mut self.spare);
         }
-        self.order = order;
-        let photons = &self.photons;
-        for (i, ph) in photons.iter().enumerate() {
-            let a = self.cell_of(ph.p - Vec3::splat(grow));
-            let b = self.cell_of(ph.p + Vec3::splat(grow));
-            for z in a.z..=b.z {
-                for y in a.y..=b.y {
-                    for x in a.x..=b.x {
-                        pairs.push((self.index(IVec3::new(x, y, z)) as u32, i as u32));
-                    }
-                }
-            }
+        // Order the photons by the view bin their centre projects to when the view bins will
+        // serve most queries, else by grid cell, so that the photons a bucket lists lie together
+        // in memory.
+        let kept = &self.spare;
+        keys.clear();
+        if self.view_active {
+            keys.par_extend(kept.par_iter().map(|p| self.view.centre_bin(p.p)));
+        } else {
+            keys.par_extend(kept.par_iter().map(|p| self.index(self.cell_of(p.p)) as u32));
         }
-        // Counting sort of the entries by cell (stable: photon order within a cell).
-        super::bucket_starts(pairs.iter().map(|&(k, _)| k), cells, &mut self.start);
-        for v in [&mut self.entry_x, &mut self.entry_y, &mut self.entry_z] {
-            v.resize(pairs.len(), 0.0);
+        let buckets =
+            if self.view_active { (self.view.nx * self.view.ny) as usize + 1 } else { cells };
+        let mut order = std::mem::take(&mut self.grid.start);
+        super::bucket_starts(keys.iter().copied(), buckets, &mut order);
+        // `count` now lists, for each place in the new order, the photon that goes there.
+        count.clear();
+        count.resize(kept.len(), 0);
+        for (i, &k) in keys.iter().enumerate() {
+            count[order[k as usize] as usize] = i as u32;
+            order[k as usize] += 1;
         }
-        self.entry_idx.resize(pairs.len(), 0);
-        let mut cursor = self.start[..cells].to_vec();
-        for &(k, i) in &pairs {
-            let slot = cursor[k as usize] as usize;
-            cursor[k as usize] += 1;
-            let p = photons[i as usize].p;
-            (self.entry_x[slot], self.entry_y[slot], self.entry_z[slot]) = (p.x, p.y, p.z);
-            self.entry_idx[slot] = i;
+        count.par_iter().map(|&i| kept[i as usize]).collect_into_vec(&mut self.photons);
+        self.grid.start = order;
+        self.keys = keys;
+        self.count = count;
+        // Enter each photon in every grid cell its (slightly grown) sphere overlaps, taking the
+        // photons in the order of their cells (so the scatter writes to nearby cells), which is
+        // the photons' own order unless they were ordered for the view bins.
+        let grow = radius * 1.001 + 1e-6 * extent.max_element();
+        let mut spans = std::mem::take(&mut self.spans);
+        let cells_of = |p: &VolumePhoton| {
+            (self.cell_of(p.p - Vec3::splat(grow)), self.cell_of(p.p + Vec3::splat(grow)))
+        };
+        spans.clear();
+        spans.par_extend(self.photons.par_iter().map(cells_of));
+        let mut grid = std::mem::take(&mut self.grid);
+        grid.fill(self.dims, &self.photons, &spans);
+        self.grid = grid;
+        if self.view_active {
+            let mut view = std::mem::take(&mut self.view);
+            view.fill(&self.photons, &mut spans);
+            self.view = view;
         }
-        self.scratch = pairs;
+        self.spans = spans;
     }
 
     /// Calls `f(photon, t_p, d²)` for every photon whose projection onto the ray o + t d (d unit)
@@ -208,47 +596,21 @@ impl BeamMap {
         if self.photons.is_empty() {
             return;
         }
-        let r2 = self.radius * self.radius;
-        let r2v = Vec4::splat(r2);
-        let (ox, oy, oz) = (Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z));
-        let (dx, dy, dz) = (Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z));
+        let ray = Lanes::new(o, d, self.radius);
+        if self.view_active {
+            if let Some(b) = self.view.bin(o, d) {
+                self.view
+                    .entries
+                    .scan(b, &ray, 0.0, t_max, |i, t, d2| f(&self.photons[i as usize], t, d2));
+                return;
+            }
+        }
+        let mut found = |i: u32, t: f32, d2: f32| f(&self.photons[i as usize], t, d2);
         // Walk the cells in grid coordinates, where cell k spans [k, k + 1).
         let og = (o - self.lo) * self.inv_cell;
         let dg = d * self.inv_cell;
         crate::dda::walk(og, dg, t_max, self.dims, |cell, t_in, t_out| {
-            let b = self.index(cell);
-            let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
-            // Four entries at a time (SSE through glam's Vec4), the rare hits one by one.
-            let (xs, ys, zs) = (&self.entry_x[s..e], &self.entry_y[s..e], &self.entry_z[s..e]);
-            let mut j = 0;
-            while j + 4 <= xs.len() {
-                let vx = Vec4::from_slice(&xs[j..j + 4]) - ox;
-                let vy = Vec4::from_slice(&ys[j..j + 4]) - oy;
-                let vz = Vec4::from_slice(&zs[j..j + 4]) - oz;
-                let t = vx * dx + vy * dy + vz * dz;
-                let d2 = vx * vx + vy * vy + vz * vz - t * t;
-                let inside = d2.cmplt(r2v)
-                    & t.cmpge(Vec4::splat(t_in.max(0.0)))
-                    & t.cmplt(Vec4::splat(t_out));
-                let mut mask = inside.bitmask();
-                while mask != 0 {
-                    let k = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let (tk, dk) = (t[k], d2[k]);
-                    if tk > 0.0 {
-                        f(&self.photons[self.entry_idx[s + j + k] as usize], tk, dk.max(0.0));
-                    }
-                }
-                j += 4;
-            }
-            for k in j..xs.len() {
-                let v = Vec3::new(xs[k], ys[k], zs[k]) - o;
-                let t = v.dot(d);
-                let d2 = v.length_squared() - t * t;
-                if d2 < r2 && t >= t_in && t < t_out && t > 0.0 {
-                    f(&self.photons[self.entry_idx[s + k] as usize], t, d2.max(0.0));
-                }
-            }
+            self.grid.scan(self.index(cell), &ray, t_in, t_out, &mut found);
             true
         });
     }
@@ -258,20 +620,47 @@ impl BeamMap {
 mod tests {
     use super::*;
     use crate::rng::{Purpose, Sampler};
+    use glam::Vec2;
+
+    fn cloud(s: &mut Sampler, n: usize, centre: Vec3, half: f32) -> Vec<VolumePhoton> {
+        (0..n)
+            .map(|i| VolumePhoton {
+                p: centre
+                    + (Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 2.0 - 1.0) * half,
+                medium: i as u32 % 3,
+                ..Default::default()
+            })
+            .collect()
+    }
+
+    /// Asserts that the query along o + t d, 0 < t < t_max, finds exactly the photons a brute
+    /// force search finds, each once.
+    fn assert_exact(map: &BeamMap, photons: &[VolumePhoton], r: f32, o: Vec3, d: Vec3, t_max: f32) {
+        let mut found = Vec::new();
+        map.query(o, d, t_max, |ph, _, _| found.push(ph.p.to_array()));
+        let mut want: Vec<[f32; 3]> = photons
+            .iter()
+            .filter(|ph| {
+                let v = ph.p - o;
+                let t = v.dot(d);
+                t > 0.0 && t < t_max && v.length_squared() - t * t < r * r
+            })
+            .map(|ph| ph.p.to_array())
+            .collect();
+        let key = |a: &[f32; 3], b: &[f32; 3]| a.partial_cmp(b).unwrap();
+        found.sort_by(key);
+        want.sort_by(key);
+        assert_eq!(found, want, "r = {r}, o = {o}, d = {d}, t_max = {t_max}");
+    }
 
     #[test]
     fn beam_query_finds_exactly_the_photons_near_the_segment() {
         let mut s = Sampler::new(3, Purpose::Other, 0, 0);
-        let photons: Vec<VolumePhoton> = (0..20_000)
-            .map(|i| VolumePhoton {
-                p: Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 2.0 - 1.0,
-                medium: i % 3,
-                ..Default::default()
-            })
-            .collect();
+        let photons = cloud(&mut s, 20_000, Vec3::ZERO, 1.0);
         let mut map = BeamMap::new();
         for r in [0.003f32, 0.01, 0.05, 0.2] {
-            map.build(&photons, r, None, |p| p.beta);
+            map.build(&photons, r, None, None, |p| p.beta);
+            assert!(!map.has_view_bins());
             for q in 0..60 {
                 let o = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 3.0 - 1.5;
                 let d = match q {
@@ -281,20 +670,48 @@ mod tests {
                     _ => crate::math::sample_uniform_sphere(s.next_2d()),
                 };
                 let t_max = if q % 5 == 0 { f32::INFINITY } else { 1.5 };
-                let mut found = Vec::new();
-                map.query(o, d, t_max, |ph, _, _| found.push(ph.p));
-                let want: Vec<Vec3> = photons
-                    .iter()
-                    .filter(|ph| {
-                        let v = ph.p - o;
-                        let t = v.dot(d);
-                        t > 0.0 && t < t_max && v.length_squared() - t * t < r * r
-                    })
-                    .map(|ph| ph.p)
-                    .collect();
-                assert_eq!(found.len(), want.len(), "r = {r}, query {q}");
-                for p in &want {
-                    assert!(found.contains(p), "r = {r}, query {q}: missed {p}");
+                assert_exact(&map, &photons, r, o, d, t_max);
+            }
+        }
+    }
+
+    /// Segments on rays from a pinhole eye use the view bins; they must find exactly what the
+    /// grid finds: from the eye, from further along the ray (as after a pass-through interface,
+    /// slightly off the ray), and with the eye inside the photons (spheres straddling the eye's
+    /// plane). Other segments and thin-lens cameras fall back to the grid.
+    #[test]
+    fn view_bins_find_exactly_the_photons_near_eye_rays() {
+        let mut s = Sampler::new(4, Purpose::Other, 0, 0);
+        let perspective = |lens_radius| Projection::Perspective {
+            tan_half_fov: (20f32.to_radians() / 2.0).tan(),
+            lens_radius,
+            focus_distance: 6.0,
+        };
+        for (eye, lens, photons) in [
+            (Vec3::new(0.1, 0.2, 6.0), 0.0, cloud(&mut s, 20_000, Vec3::ZERO, 1.0)),
+            (Vec3::new(0.0, 0.0, 0.5), 0.0, cloud(&mut s, 20_000, Vec3::ZERO, 1.0)),
+            (Vec3::new(0.1, 0.2, 6.0), 0.05, cloud(&mut s, 5_000, Vec3::ZERO, 1.0)),
+        ] {
+            let camera = Camera::new(perspective(lens), eye, Vec3::ZERO, Vec3::Y, [90, 50]);
+            let mut map = BeamMap::new();
+            for r in [0.004f32, 0.02, 0.1] {
+                map.build(&photons, r, None, Some(&camera), |p| p.beta);
+                assert_eq!(map.has_view_bins(), lens == 0.0, "eye {eye}, lens {lens}");
+                for q in 0..80 {
+                    let pixel = Vec2::new(s.next_f32() * 90.0, s.next_f32() * 50.0);
+                    let ray = camera.generate_ray(pixel, s.next_2d());
+                    let t_max = if q % 4 == 0 { f32::INFINITY } else { 8.0 * s.next_f32() };
+                    assert_eq!(map.view.bin(ray.o, ray.d).is_some(), lens == 0.0);
+                    assert_exact(&map, &photons, r, ray.o, ray.d, t_max);
+                    // Further along the same ray, nudged off it by less than the margin.
+                    let nudge = ray.d.any_orthonormal_vector() * (0.5 * VIEW_LINE_MARGIN * r);
+                    let o = ray.o + ray.d * (6.0 * s.next_f32()) + nudge;
+                    assert_eq!(map.view.bin(o, ray.d).is_some(), lens == 0.0);
+                    assert_exact(&map, &photons, r, o, ray.d, t_max);
+                    // Any other segment.
+                    let o = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 3.0 - 1.5;
+                    let d = crate::math::sample_uniform_sphere(s.next_2d());
+                    assert_exact(&map, &photons, r, o, d, t_max);
                 }
             }
         }

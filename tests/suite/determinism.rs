@@ -1,12 +1,17 @@
-//! The same scene, seed and iteration count give a bit-identical image on 1 and 2 threads.
+//! The same scene, seed and iteration count give a bit-identical image on 1, 2 and 3 threads.
 
 use crate::common::scene_path;
 use haze::progress::Silent;
-use haze::{Image, Scene};
+use haze::settings::VolumeEstimate;
+use haze::{Image, RenderSettings as Settings, Scene};
 use std::sync::atomic::AtomicBool;
 
 fn render_with(scene: &Scene, threads: usize, seed: u64) -> Image {
-    let mut settings = scene.settings.clone();
+    render_settings(scene, &scene.settings, threads, seed)
+}
+
+fn render_settings(scene: &Scene, settings: &Settings, threads: usize, seed: u64) -> Image {
+    let mut settings = settings.clone();
     settings.iterations = Some(3);
     settings.photons = 30_000;
     settings.seed = seed;
@@ -25,5 +30,34 @@ fn image_is_bit_identical_across_thread_counts() {
         assert_eq!(one.info.nonfinite_samples, 0);
         let other_seed = render_with(&scene, 2, 6);
         assert!(one.pixels != other_seed.pixels, "{name}: the seed changes nothing");
+    }
+}
+
+/// Media: the beam estimate through the view bins (pinhole camera outside the fog, and inside it
+/// in spotlight-fog) and the grid (segments refracted by the lens), with and without thinning, and
+/// the point estimate.
+#[test]
+fn media_images_are_bit_identical_across_thread_counts() {
+    for (name, size) in
+        [("volumetric-caustic.toml", [200, 113]), ("spotlight-fog.toml", [160, 100])]
+    {
+        let mut scene = Scene::load(scene_path(name)).unwrap();
+        scene.camera.resolution = size;
+        let beam = scene.settings.clone();
+        let mut thinned = beam.clone();
+        thinned.beam_cell_budget = Some(4);
+        let mut point = beam.clone();
+        point.volume_estimate = VolumeEstimate::Point;
+        for (label, settings) in [("beam", &beam), ("thinned", &thinned), ("point", &point)] {
+            let one = render_settings(&scene, settings, 1, 5);
+            for threads in [2, 3] {
+                let other = render_settings(&scene, settings, threads, 5);
+                assert!(
+                    one.pixels == other.pixels,
+                    "{name} {label}: 1 and {threads} threads differ"
+                );
+            }
+            assert!(one.pixels.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
+        }
     }
 }
