@@ -40,7 +40,7 @@ const PHOTONS_PER_CELL: f32 = 4.0;
 
 /// … and when it only serves the segments the view bins cannot (measured on the volumetric
 /// caustic: coarser cells build faster and cost those few queries little; docs/performance.md).
-const PHOTONS_PER_FALLBACK_CELL: f32 = 64.0;
+const PHOTONS_PER_FALLBACK_CELL: f32 = 16.0;
 
 /// Most cells in the grid (4 bytes each in the cell table).
 const MAX_CELLS: f32 = (1 << 22) as f32;
@@ -314,14 +314,17 @@ impl ViewBins {
         self.ny = (h as f32 / bin_pixels).ceil() as i32;
         self.u0 = -tan_half_fov * camera.aspect();
         self.v0 = -tan_half_fov;
-        let entries: usize = photons
+        // Entries per photon, from an evenly strided sample.
+        let stride = photons.len().div_ceil(1 << 15);
+        let sample: Vec<&VolumePhoton> = photons.iter().step_by(stride).collect();
+        let entries: usize = sample
             .par_iter()
             .map(|p| {
                 self.footprint(p.p)
                     .map_or(0, |(a, b)| (b - a + IVec3::ONE).element_product() as usize)
             })
             .sum();
-        entries <= MAX_VIEW_ENTRIES_PER_PHOTON * photons.len()
+        entries <= MAX_VIEW_ENTRIES_PER_PHOTON * sample.len()
     }
 
     /// Enters `photons` in the bins (set up by `setup`).
@@ -336,8 +339,8 @@ impl ViewBins {
     fn centre_bin(&self, p: Vec3) -> u32 {
         let c = p - self.eye;
         let z = c.dot(self.forward);
-        let bx = ((c.dot(self.right) / z - self.u0) * self.inv_bin).floor();
-        let by = ((c.dot(self.up) / z - self.v0) * self.inv_bin).floor();
+        let bx = (c.dot(self.right) / z - self.u0) * self.inv_bin;
+        let by = (c.dot(self.up) / z - self.v0) * self.inv_bin;
         if z > 0.0 && bx >= 0.0 && by >= 0.0 && bx < self.nx as f32 && by < self.ny as f32 {
             by as u32 * self.nx as u32 + bx as u32
         } else {
@@ -388,8 +391,8 @@ impl ViewBins {
         if z <= 0.0 || rel.dot(d) < 0.0 || rel.cross(d).length_squared() > self.margin2 {
             return None;
         }
-        let bx = ((d.dot(self.right) / z - self.u0) * self.inv_bin).floor();
-        let by = ((d.dot(self.up) / z - self.v0) * self.inv_bin).floor();
+        let bx = (d.dot(self.right) / z - self.u0) * self.inv_bin;
+        let by = (d.dot(self.up) / z - self.v0) * self.inv_bin;
         if bx >= 0.0 && by >= 0.0 && bx < self.nx as f32 && by < self.ny as f32 {
             Some(by as usize * self.nx as usize + bx as usize)
         } else {
@@ -408,6 +411,8 @@ pub struct BeamMap {
     inv_cell: f32,
     radius: f32,
     lo: Vec3,
+    /// Axes from the fastest-varying in the cell numbering to the slowest.
+    axes: [usize; 3],
     /// Bins for segments on rays from the eye, when the camera is a pinhole.
     view: ViewBins,
     view_active: bool,
@@ -442,13 +447,23 @@ impl BeamMap {
     /// Index of cell `c` (which must lie in the grid).
     #[inline]
     fn index(&self, c: IVec3) -> usize {
-        (c.x + self.dims.x * (c.y + self.dims.y * c.z)) as usize
+        let (c, d) = (self.swizzle(c), self.swizzle(self.dims));
+        (c.x + d.x * (c.y + d.y * c.z)) as usize
+    }
+
+    /// Cell coordinates reordered from the fastest-varying axis of the cell numbering to the
+    /// slowest.
+    #[inline]
+    fn swizzle(&self, c: IVec3) -> IVec3 {
+        let [a, b, d] = self.axes;
+        IVec3::new(c[a], c[b], c[d])
     }
 
     /// Cell coordinates of `p`, clamped to the grid.
     #[inline]
     fn cell_of(&self, p: Vec3) -> IVec3 {
-        ((p - self.lo) * self.inv_cell).floor().as_ivec3().clamp(IVec3::ZERO, self.dims - 1)
+        // Truncation, then the clamp, gives the floor's cell (no libm floor in the hot loops).
+        ((p - self.lo) * self.inv_cell).as_ivec3().clamp(IVec3::ZERO, self.dims - 1)
     }
 
     /// Rebuilds the map over `photons` for queries of radius `radius`, storing each photon with
@@ -501,6 +516,21 @@ impl BeamMap {
         self.inv_cell = 1.0 / cell_for(per_cell);
         self.dims = (extent * self.inv_cell).ceil().as_ivec3().max(IVec3::ONE);
         let cells = self.dims.element_product() as usize;
+        // Cells are numbered x-fastest; but when the photons will be in view-bin order (image
+        // rows, then columns), the axis nearest the view direction varies fastest and the one
+        // nearest the image's up axis slowest, so that photons next to each other in that order
+        // fill cells next to each other.
+        self.axes = [0, 1, 2];
+        if self.view_active {
+            let dominant = |v: Vec3, skip: Option<usize>| {
+                (0..3)
+                    .filter(|&a| Some(a) != skip)
+                    .max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()))
+            };
+            let fast = dominant(self.view.forward, None).unwrap_or(2);
+            let slow = dominant(self.view.up, Some(fast)).unwrap_or((fast + 1) % 3);
+            self.axes = [fast, 3 - fast - slow, slow];
+        }
         // Photons per thinning cell: cells of the size the grid has when it serves every query
         // (about PHOTONS_PER_CELL photons each on average), whatever the grid's own size.
         let mut keys = std::mem::take(&mut self.keys);
@@ -511,7 +541,7 @@ impl BeamMap {
             let lo = self.lo;
             keys.clear();
             keys.par_extend(photons.par_iter().map(|p| {
-                let c = ((p.p - lo) * inv).floor().as_ivec3().clamp(IVec3::ZERO, dims - 1);
+                let c = ((p.p - lo) * inv).as_ivec3().clamp(IVec3::ZERO, dims - 1);
                 (c.x + dims.x * (c.y + dims.y * c.z)) as u32
             }));
             count.clear();
@@ -574,12 +604,14 @@ impl BeamMap {
         let grow = radius * 1.001 + 1e-6 * extent.max_element();
         let mut spans = std::mem::take(&mut self.spans);
         let cells_of = |p: &VolumePhoton| {
-            (self.cell_of(p.p - Vec3::splat(grow)), self.cell_of(p.p + Vec3::splat(grow)))
+            let (a, b) =
+                (self.cell_of(p.p - Vec3::splat(grow)), self.cell_of(p.p + Vec3::splat(grow)));
+            (self.swizzle(a), self.swizzle(b))
         };
         spans.clear();
         spans.par_extend(self.photons.par_iter().map(cells_of));
         let mut grid = std::mem::take(&mut self.grid);
-        grid.fill(self.dims, &self.photons, &spans);
+        grid.fill(self.swizzle(self.dims), &self.photons, &spans);
         self.grid = grid;
         if self.view_active {
             let mut view = std::mem::take(&mut self.view);
