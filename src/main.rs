@@ -112,7 +112,7 @@ struct Overrides {
     /// Original PPM (per-pixel statistics, surfaces only) or probabilistic PPM.
     #[arg(long, value_name = "KIND", value_parser = parse_progression)]
     progression: Option<Progression>,
-    /// Thin volume photons in beam-grid cells holding more than B photons (unbiased).
+    /// Thin volume photons in cells (of ~4 photons on average) holding more than B photons (unbiased).
     #[arg(long, value_name = "B")]
     beam_cell_budget: Option<u32>,
 }

@@ -159,9 +159,10 @@ pub struct RenderSettings {
     pub integrator: Integrator,
     /// Probabilistic (global schedule) or original (per-pixel statistics) progression.
     pub progression: Progression,
-    /// If set, volume photons in beam-grid cells holding more than this many photons are thinned
-    /// by Russian roulette (kept with probability budget/count, power divided by it), which bounds
-    /// the cost of a beam query where photons are dense without changing the expected image.
+    /// If set, volume photons in thinning cells (cubes holding ~4 photons on average) holding more
+    /// than this many photons are thinned by Russian roulette (kept with probability
+    /// budget/count, power divided by it), which bounds the cost of a beam query where photons are
+    /// dense without changing the expected image.
     pub beam_cell_budget: Option<u32>,
     /// Measure the time the camera pass spends in volume estimates and report it in
     /// [`Status::volume_estimate_seconds`](crate::progress::Status) (for benchmarks: two clock

@@ -401,6 +401,52 @@ impl ViewBins {
     }
 }
 
+/// The extent of a photon cloud and the cell sizes that hold a given number of its photons.
+struct Sizing {
+    /// Lower corner of the photons' bounds, less the radius.
+    lo: Vec3,
+    /// Size of the bounds, grown by the radius on each side.
+    extent: Vec3,
+    /// Volume per photon in the central 90 % of the photons along each axis.
+    volume_per_photon: f32,
+    radius: f32,
+}
+
+impl Sizing {
+    fn new(photons: &[VolumePhoton], radius: f32) -> Self {
+        let (lo, hi) = photons
+            .par_iter()
+            .fold(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.p), hi.max(p.p)))
+            .reduce(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (c, d)| (a.min(c), b.max(d)));
+        let lo = lo - Vec3::splat(radius);
+        let extent = (hi + Vec3::splat(radius) - lo).max(Vec3::splat(1e-6));
+        // The photons' typical spacing, from the volume holding the central 90% of them along
+        // each axis (a few stray photons far away must not make every cell huge), estimated from
+        // an evenly strided sample.
+        let stride = photons.len().div_ceil(1 << 16);
+        let mut coord: Vec<f32> = Vec::with_capacity(photons.len() / stride + 1);
+        let mut core = Vec3::ZERO;
+        for axis in 0..3 {
+            coord.clear();
+            coord.extend(photons.iter().step_by(stride).map(|p| p.p[axis]));
+            let n = coord.len();
+            let a = *coord.select_nth_unstable_by(n / 20, f32::total_cmp).1;
+            let b = *coord.select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp).1;
+            core[axis] = (b - a).max(radius).max(1e-6 * extent.max_element());
+        }
+        let volume_per_photon = core.element_product() / 0.9f32.powi(3) / photons.len() as f32;
+        Self { lo, extent, volume_per_photon, radius }
+    }
+
+    /// The side of cells holding `per_cell` photons on average in the core, at least twice the
+    /// radius, and no smaller than MAX_CELLS cells over the extent allow.
+    fn cell(&self, per_cell: f32) -> f32 {
+        let spacing = (per_cell * self.volume_per_photon).cbrt();
+        let cap = (self.extent.element_product() / MAX_CELLS).cbrt();
+        spacing.max(2.0 * self.radius).max(cap) * 1.0001
+    }
+}
+
 /// The beam-query structure.
 #[derive(Default)]
 pub struct BeamMap {
@@ -485,37 +531,36 @@ impl BeamMap {
             return;
         }
         self.view_active = camera.is_some_and(|c| self.view.setup(c, photons, radius));
-        let (lo, hi) = photons
-            .par_iter()
-            .fold(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.p), hi.max(p.p)))
-            .reduce(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (c, d)| (a.min(c), b.max(d)));
-        self.lo = lo - Vec3::splat(radius);
-        let extent = (hi + Vec3::splat(radius) - self.lo).max(Vec3::splat(1e-6));
-        // The photons' typical spacing, from the volume holding the central 90% of them along
-        // each axis (a few stray photons far away must not make every cell huge), estimated from
-        // an evenly strided sample.
-        let stride = photons.len().div_ceil(1 << 16);
-        let mut coord: Vec<f32> = Vec::with_capacity(photons.len() / stride + 1);
-        let mut core = Vec3::ZERO;
-        for axis in 0..3 {
-            coord.clear();
-            coord.extend(photons.iter().step_by(stride).map(|p| p.p[axis]));
-            let n = coord.len();
-            let a = *coord.select_nth_unstable_by(n / 20, f32::total_cmp).1;
-            let b = *coord.select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp).1;
-            core[axis] = (b - a).max(radius).max(1e-6 * extent.max_element());
+        let sizing = Sizing::new(photons, radius);
+        self.lay_out_grid(&sizing);
+        self.weigh_and_thin(photons, &sizing, thinning, weight);
+        self.reorder();
+        // Enter each photon in every grid cell its (slightly grown) sphere overlaps.
+        let grow = radius * 1.001 + 1e-6 * sizing.extent.max_element();
+        let mut spans = std::mem::take(&mut self.spans);
+        spans.clear();
+        spans.par_extend(self.photons.par_iter().map(|p| {
+            let (a, b) =
+                (self.cell_of(p.p - Vec3::splat(grow)), self.cell_of(p.p + Vec3::splat(grow)));
+            (self.swizzle(a), self.swizzle(b))
+        }));
+        let mut grid = std::mem::take(&mut self.grid);
+        grid.fill(self.swizzle(self.dims), &self.photons, &spans);
+        self.grid = grid;
+        if self.view_active {
+            let mut view = std::mem::take(&mut self.view);
+            view.fill(&self.photons, &mut spans);
+            self.view = view;
         }
-        let volume = core.x * core.y * core.z / 0.9f32.powi(3);
-        // At least twice the radius, and no more than MAX_CELLS cells in all.
-        let cap = (extent.x * extent.y * extent.z / MAX_CELLS).cbrt();
-        let cell_for = |per_cell: f32| {
-            let spacing = (per_cell * volume / photons.len() as f32).cbrt();
-            spacing.max(2.0 * radius).max(cap) * 1.0001
-        };
+        self.spans = spans;
+    }
+
+    /// Sets the grid's bounds, cell size and cell numbering.
+    fn lay_out_grid(&mut self, sizing: &Sizing) {
+        self.lo = sizing.lo;
         let per_cell = if self.view_active { PHOTONS_PER_FALLBACK_CELL } else { PHOTONS_PER_CELL };
-        self.inv_cell = 1.0 / cell_for(per_cell);
-        self.dims = (extent * self.inv_cell).ceil().as_ivec3().max(IVec3::ONE);
-        let cells = self.dims.element_product() as usize;
+        self.inv_cell = 1.0 / sizing.cell(per_cell);
+        self.dims = (sizing.extent * self.inv_cell).ceil().as_ivec3().max(IVec3::ONE);
         // Cells are numbered x-fastest; but when the photons will be in view-bin order (image
         // rows, then columns), the axis nearest the view direction varies fastest and the one
         // nearest the image's up axis slowest, so that photons next to each other in that order
@@ -531,94 +576,81 @@ impl BeamMap {
             let slow = dominant(self.view.up, Some(fast)).unwrap_or((fast + 1) % 3);
             self.axes = [fast, 3 - fast - slow, slow];
         }
-        // Photons per thinning cell: cells of the size the grid has when it serves every query
-        // (about PHOTONS_PER_CELL photons each on average), whatever the grid's own size.
-        let mut keys = std::mem::take(&mut self.keys);
-        let mut count = std::mem::take(&mut self.count);
-        if thinning.is_some() {
-            let inv = 1.0 / cell_for(PHOTONS_PER_CELL);
-            let dims = (extent * inv).ceil().as_ivec3().max(IVec3::ONE);
-            let lo = self.lo;
-            keys.clear();
-            keys.par_extend(photons.par_iter().map(|p| {
-                let c = ((p.p - lo) * inv).as_ivec3().clamp(IVec3::ZERO, dims - 1);
-                (c.x + dims.x * (c.y + dims.y * c.z)) as u32
-            }));
-            count.clear();
-            count.resize(dims.element_product() as usize, 0);
-            for &k in &keys {
-                count[k as usize] += 1;
-            }
-        }
-        let counts = &count;
-        let power = |i: usize, p: &VolumePhoton, k: u32| {
-            let keep =
-                thinning.map_or(1.0, |t| (t.budget as f64 / counts[k as usize] as f64).min(1.0));
-            if let Some(t) = thinning.filter(|_| keep < 1.0) {
-                let mut u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64);
-                if u.next_f32() as f64 >= keep {
-                    return None;
-                }
-            }
-            Some(VolumePhoton { beta: weight(p) * (1.0 / keep) as f32, ..*p })
-        };
+    }
+
+    /// Puts the photons, with their powers replaced by `weight` and thinned, into `spare`.
+    fn weigh_and_thin(
+        &mut self,
+        photons: &[VolumePhoton],
+        sizing: &Sizing,
+        thinning: Option<Thinning>,
+        weight: impl Fn(&VolumePhoton) -> crate::math::Rgb + Sync,
+    ) {
         self.spare.clear();
-        if thinning.is_some() {
-            self.spare.par_extend(
-                photons.par_iter().zip(&keys).enumerate().filter_map(|(i, (p, &k))| power(i, p, k)),
-            );
-        } else {
+        let Some(t) = thinning else {
             photons
                 .par_iter()
                 .map(|p| VolumePhoton { beta: weight(p), ..*p })
                 .collect_into_vec(&mut self.spare);
+            return;
+        };
+        // Photons per thinning cell: cells of the size the grid has when it serves every query
+        // (about PHOTONS_PER_CELL photons each on average), whatever the grid's own size.
+        let inv = 1.0 / sizing.cell(PHOTONS_PER_CELL);
+        let dims = (sizing.extent * inv).ceil().as_ivec3().max(IVec3::ONE);
+        self.keys.clear();
+        self.keys.par_extend(photons.par_iter().map(|p| {
+            let c = ((p.p - sizing.lo) * inv).as_ivec3().clamp(IVec3::ZERO, dims - 1);
+            (c.x + dims.x * (c.y + dims.y * c.z)) as u32
+        }));
+        self.count.clear();
+        self.count.resize(dims.element_product() as usize, 0);
+        for &k in &self.keys {
+            self.count[k as usize] += 1;
         }
-        // Order the photons by the view bin their centre projects to when the view bins will
-        // serve most queries, else by grid cell, so that the photons a bucket lists lie together
-        // in memory.
+        let count = &self.count;
+        self.spare.par_extend(photons.par_iter().zip(&self.keys).enumerate().filter_map(
+            |(i, (p, &k))| {
+                let keep = (t.budget as f64 / count[k as usize] as f64).min(1.0);
+                if keep < 1.0 {
+                    let mut u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64);
+                    if u.next_f32() as f64 >= keep {
+                        return None;
+                    }
+                }
+                Some(VolumePhoton { beta: weight(p) * (1.0 / keep) as f32, ..*p })
+            },
+        ));
+    }
+
+    /// Moves the photons from `spare` into `photons`, ordered by the view bin their centre
+    /// projects to when the view bins will serve most queries, else by grid cell, so that the
+    /// photons a bucket lists lie together in memory (a stable counting sort).
+    fn reorder(&mut self) {
         let kept = &self.spare;
+        let mut keys = std::mem::take(&mut self.keys);
         keys.clear();
-        if self.view_active {
+        let buckets = if self.view_active {
             keys.par_extend(kept.par_iter().map(|p| self.view.centre_bin(p.p)));
+            (self.view.nx * self.view.ny) as usize + 1
         } else {
             keys.par_extend(kept.par_iter().map(|p| self.index(self.cell_of(p.p)) as u32));
-        }
-        let buckets =
-            if self.view_active { (self.view.nx * self.view.ny) as usize + 1 } else { cells };
-        let mut order = std::mem::take(&mut self.grid.start);
-        super::bucket_starts(keys.iter().copied(), buckets, &mut order);
-        // `count` now lists, for each place in the new order, the photon that goes there.
-        count.clear();
-        count.resize(kept.len(), 0);
-        for (i, &k) in keys.iter().enumerate() {
-            count[order[k as usize] as usize] = i as u32;
-            order[k as usize] += 1;
-        }
-        count.par_iter().map(|&i| kept[i as usize]).collect_into_vec(&mut self.photons);
-        self.grid.start = order;
-        self.keys = keys;
-        self.count = count;
-        // Enter each photon in every grid cell its (slightly grown) sphere overlaps, taking the
-        // photons in the order of their cells (so the scatter writes to nearby cells), which is
-        // the photons' own order unless they were ordered for the view bins.
-        let grow = radius * 1.001 + 1e-6 * extent.max_element();
-        let mut spans = std::mem::take(&mut self.spans);
-        let cells_of = |p: &VolumePhoton| {
-            let (a, b) =
-                (self.cell_of(p.p - Vec3::splat(grow)), self.cell_of(p.p + Vec3::splat(grow)));
-            (self.swizzle(a), self.swizzle(b))
+            self.dims.element_product() as usize
         };
-        spans.clear();
-        spans.par_extend(self.photons.par_iter().map(cells_of));
-        let mut grid = std::mem::take(&mut self.grid);
-        grid.fill(self.swizzle(self.dims), &self.photons, &spans);
-        self.grid = grid;
-        if self.view_active {
-            let mut view = std::mem::take(&mut self.view);
-            view.fill(&self.photons, &mut spans);
-            self.view = view;
+        let mut start = std::mem::take(&mut self.grid.start);
+        super::bucket_starts(keys.iter().copied(), buckets, &mut start);
+        // `source[j]` is the photon that goes to place j.
+        let mut source = std::mem::take(&mut self.count);
+        source.clear();
+        source.resize(kept.len(), 0);
+        for (i, &k) in keys.iter().enumerate() {
+            source[start[k as usize] as usize] = i as u32;
+            start[k as usize] += 1;
         }
-        self.spans = spans;
+        source.par_iter().map(|&i| kept[i as usize]).collect_into_vec(&mut self.photons);
+        self.grid.start = start;
+        self.keys = keys;
+        self.count = source;
     }
 
     /// Calls `f(photon, t_p, d²)` for every photon whose projection onto the ray o + t d (d unit)
