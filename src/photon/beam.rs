@@ -371,7 +371,10 @@ impl ViewBins {
             }
         };
         let to_bins = |(lo, hi): (f32, f32), origin: f32, n: i32| {
-            let (a, b) = ((lo - origin) * self.inv_bin, (hi - origin) * self.inv_bin);
+            // A margin for the rounding of these bounds and of the query's own projection.
+            let size = |v: f32| if v.is_finite() { v.abs() } else { 0.0 };
+            let pad = 1e-6 * (1.0 + size(lo).max(size(hi)));
+            let (a, b) = ((lo - pad - origin) * self.inv_bin, (hi + pad - origin) * self.inv_bin);
             if b < 0.0 || a >= n as f32 {
                 return None;
             }
