@@ -22,6 +22,43 @@
 
 use crate::estimate::kernel::Kernel;
 
+/// Gives an enum of named choices `name()` (as written in scene files and on the command line)
+/// and `FromStr`, whose error lists the choices.
+macro_rules! named_choices {
+    ($ty:ident, $what:literal, { $($variant:ident => $name:literal),+ $(,)? }) => {
+        impl $ty {
+            /// Name as written in scene files and on the command line.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($ty::$variant => $name,)+
+                }
+            }
+        }
+
+        impl std::str::FromStr for $ty {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, Self::Err> {
+                $(if s == $name {
+                    return Ok($ty::$variant);
+                })+
+                let names = [$($name),+];
+                Err(format!("unknown {} `{s}`; expected {}", $what, $crate::settings::one_of(&names)))
+            }
+        }
+    };
+}
+pub(crate) use named_choices;
+
+/// `"a"`, `"a" or "b"`, `"a", "b" or "c"`, …
+pub(crate) fn one_of(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+    match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    }
+}
+
 /// Initial photon-gathering radius.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Radius {
@@ -40,26 +77,7 @@ pub enum Integrator {
     Path,
 }
 
-impl Integrator {
-    /// Name as written in scene files and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Integrator::PhotonMapping => "ppm",
-            Integrator::Path => "path",
-        }
-    }
-}
-
-impl std::str::FromStr for Integrator {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "ppm" => Ok(Integrator::PhotonMapping),
-            "path" => Ok(Integrator::Path),
-            _ => Err(format!("unknown integrator `{s}`; expected \"ppm\" or \"path\"")),
-        }
-    }
-}
+named_choices!(Integrator, "integrator", { PhotonMapping => "ppm", Path => "path" });
 
 /// How the radius shrinks from one iteration to the next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,28 +91,10 @@ pub enum Progression {
     Original,
 }
 
-impl Progression {
-    /// Name as written in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Progression::Probabilistic => "probabilistic",
-            Progression::Original => "original",
-        }
-    }
-}
-
-impl std::str::FromStr for Progression {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "probabilistic" => Ok(Progression::Probabilistic),
-            "original" => Ok(Progression::Original),
-            _ => Err(format!(
-                "unknown progression `{s}`; expected \"probabilistic\" or \"original\""
-            )),
-        }
-    }
-}
+named_choices!(Progression, "progression", {
+    Probabilistic => "probabilistic",
+    Original => "original",
+});
 
 /// How in-scattered radiance is estimated along eye paths in media.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -107,26 +107,7 @@ pub enum VolumeEstimate {
     Point,
 }
 
-impl VolumeEstimate {
-    /// Name as written in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            VolumeEstimate::Beam => "beam",
-            VolumeEstimate::Point => "point",
-        }
-    }
-}
-
-impl std::str::FromStr for VolumeEstimate {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "beam" => Ok(VolumeEstimate::Beam),
-            "point" => Ok(VolumeEstimate::Point),
-            _ => Err(format!("unknown volume estimate `{s}`; expected \"beam\" or \"point\"")),
-        }
-    }
-}
+named_choices!(VolumeEstimate, "volume estimate", { Beam => "beam", Point => "point" });
 
 /// How to render.
 #[derive(Clone, Debug, PartialEq)]
@@ -311,5 +292,35 @@ impl RenderSettings {
             _ => return Err(format!("unknown render setting `{key}`")),
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn named_choices_round_trip_and_list_the_choices() {
+        for k in Kernel::ALL {
+            assert_eq!(k.name().parse::<Kernel>(), Ok(k));
+        }
+        for i in [Integrator::PhotonMapping, Integrator::Path] {
+            assert_eq!(i.name().parse::<Integrator>(), Ok(i));
+        }
+        for p in [Progression::Probabilistic, Progression::Original] {
+            assert_eq!(p.name().parse::<Progression>(), Ok(p));
+        }
+        for v in [VolumeEstimate::Beam, VolumeEstimate::Point] {
+            assert_eq!(v.name().parse::<VolumeEstimate>(), Ok(v));
+        }
+        assert_eq!(
+            "gauss".parse::<Kernel>(),
+            Err("unknown kernel `gauss`; expected \"constant\", \"epanechnikov\" or \"biweight\""
+                .to_string())
+        );
+        assert_eq!(
+            "x".parse::<VolumeEstimate>(),
+            Err("unknown volume estimate `x`; expected \"beam\" or \"point\"".to_string())
+        );
     }
 }

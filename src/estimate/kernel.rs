@@ -10,7 +10,6 @@
 //! | biweight     | (3/π)(1−u²)²   | (105/(32π))(1−u²)²  |
 
 use std::f32::consts::PI;
-use std::str::FromStr;
 
 /// A density-estimation kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,27 +49,10 @@ impl Kernel {
             }
         }
     }
-
-    /// Name as written in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Kernel::Constant => "constant",
-            Kernel::Epanechnikov => "epanechnikov",
-            Kernel::Biweight => "biweight",
-        }
-    }
 }
 
-impl FromStr for Kernel {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "constant" => Ok(Kernel::Constant),
-            "epanechnikov" => Ok(Kernel::Epanechnikov),
-            "biweight" => Ok(Kernel::Biweight),
-            _ => Err(format!(
-                "unknown kernel `{s}`; expected \"constant\", \"epanechnikov\" or \"biweight\""
-            )),
-        }
-    }
-}
+crate::settings::named_choices!(Kernel, "kernel", {
+    Constant => "constant",
+    Epanechnikov => "epanechnikov",
+    Biweight => "biweight",
+});

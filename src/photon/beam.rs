@@ -22,16 +22,19 @@
 //!
 //! Both find exactly the photons with 0 < t_p < t_max and distance below the radius (tested). The
 //! order in which a query finds photons depends only on the ray, so sums are the same whatever the
-//! thread count. Cells are numbered x-fastest and bins row by row, and their entries are stored
-//! in that order, with the photons sorted by the bin they project to (or, without view bins, the
-//! cell they lie in), so a query reads memory that lies close together (a hashed grid was 2–3×
-//! slower: every cell visit was a cache miss). Both are built by parallel counting sorts whose
+//! thread count. Bins are numbered row by row, and cells along the axis nearest the view
+//! direction first (x first without view bins); their entries are stored in that order, with the
+//! photons sorted by the bin they project to (or, without view bins, the cell they lie in), so a
+//! query reads memory that lies close together (a hashed grid was 2–3× slower: every cell visit
+//! was a cache miss). The bucketed entries are in `entries.rs`, the view bins in `view.rs`. Both are built by parallel counting sorts whose
 //! result does not depend on the thread count; buffers are reused between iterations.
 
 use super::VolumePhoton;
+use super::entries::{Entries, Lanes, Span};
+use super::view::ViewBins;
 use crate::rng::{Purpose, Sampler};
-use crate::scene::camera::{Camera, Projection};
-use glam::{IVec3, Vec3, Vec4};
+use crate::scene::camera::Camera;
+use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 /// Mean photons per cell the grid's cell size aims for when the radius is small, when the grid
@@ -45,20 +48,6 @@ const PHOTONS_PER_FALLBACK_CELL: f32 = 16.0;
 /// Most cells in the grid (4 bytes each in the cell table).
 const MAX_CELLS: f32 = (1 << 22) as f32;
 
-/// Side of a view bin in units of the median radius (in pixels) of the photons' projected spheres.
-const BIN_PER_FOOTPRINT: f32 = 1.0;
-
-/// Largest side of a view bin, in pixels.
-const MAX_BIN_PIXELS: f32 = 64.0;
-
-/// The view bins are skipped (the grid serves every query) when they would hold more than this
-/// many entries per photon on average — a camera inside a dense cloud of photons, for instance.
-const MAX_VIEW_ENTRIES_PER_PHOTON: usize = 32;
-
-/// How far (in units of the radius) a segment's line may pass from the eye and still use the
-/// view bins: it covers the offsets of ray origins at pass-through interfaces.
-const VIEW_LINE_MARGIN: f32 = 0.01;
-
 /// Russian-roulette thinning of dense photon cells, which bounds the cost of a beam query where
 /// photons crowd (near a light inside a medium, in a volumetric caustic) without changing the
 /// expected estimate.
@@ -66,11 +55,11 @@ const VIEW_LINE_MARGIN: f32 = 0.01;
 /// Space is cut into thinning cells (cubes of the size the beam grid's cells have when the grid
 /// serves every query: about `PHOTONS_PER_CELL` photons each on average, and at least twice the
 /// radius). A photon whose centre lies in a thinning cell holding n > `budget` photons is kept
-/// with probability p = budget / n, and its power is divided by p. The decision uses a random number of its own,
-/// keyed by (seed, iteration, photon index), independent of everything else once the photons are
-/// placed; so, given the photons, its expected contribution to any query is exactly its
-/// contribution without thinning, and the estimate stays unbiased (its variance grows where photons
-/// were dropped). A cell then holds about `budget` photons of its own, which bounds the photons a
+/// with probability p = budget / n, and its power is divided by p. The decision uses a random
+/// number of its own, keyed by (seed, iteration, photon index), independent of everything else
+/// once the photons are placed; so, given the photons, its expected contribution to any query is
+/// exactly its contribution without thinning, and the estimate stays unbiased (its variance grows
+/// where photons were dropped). A cell then holds about `budget` photons of its own, which bounds the photons a
 /// query tests per unit length of its segment.
 #[derive(Clone, Copy, Debug)]
 pub struct Thinning {
@@ -80,328 +69,6 @@ pub struct Thinning {
     pub seed: u64,
     /// Iteration (1-based).
     pub iteration: u64,
-}
-
-/// An inclusive box of buckets (empty when a coordinate of the first corner exceeds the second's).
-type Span = (IVec3, IVec3);
-
-/// The empty span.
-const NO_SPAN: Span = (IVec3::ONE, IVec3::ZERO);
-
-/// Bands of buckets filled in parallel (a constant: the result does not depend on it).
-const BANDS: usize = 4;
-
-/// Photon entries grouped by bucket (a grid cell or a view bin): `start[b]..start[b + 1]` are
-/// bucket b's entries, each the photon's position (read by every test) and its index.
-#[derive(Default)]
-struct Entries {
-    start: Vec<u32>,
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
-    idx: Vec<u32>,
-}
-
-/// A query ray, splatted for four-wide tests.
-struct Lanes {
-    o: Vec3,
-    d: Vec3,
-    r2: f32,
-    ox: Vec4,
-    oy: Vec4,
-    oz: Vec4,
-    dx: Vec4,
-    dy: Vec4,
-    dz: Vec4,
-}
-
-impl Lanes {
-    fn new(o: Vec3, d: Vec3, r: f32) -> Self {
-        Self {
-            o,
-            d,
-            r2: r * r,
-            ox: Vec4::splat(o.x),
-            oy: Vec4::splat(o.y),
-            oz: Vec4::splat(o.z),
-            dx: Vec4::splat(d.x),
-            dy: Vec4::splat(d.y),
-            dz: Vec4::splat(d.z),
-        }
-    }
-}
-
-/// Calls `f(bucket, i)` for every bucket of every span `spans[i]` that lies in the z-slices
-/// `z0..=z1` of a grid of `dims` numbered x-fastest, in the order of the spans.
-#[inline(always)]
-fn each_in_slices(spans: &[Span], dims: IVec3, z0: i32, z1: i32, mut f: impl FnMut(usize, u32)) {
-    for (i, (a, b)) in spans.iter().enumerate() {
-        let i = i as u32;
-        for z in a.z.max(z0)..=b.z.min(z1) {
-            for y in a.y..=b.y {
-                let row = (dims.x * (y + dims.y * z)) as usize;
-                for x in a.x..=b.x {
-                    f(row + x as usize, i);
-                }
-            }
-        }
-    }
-}
-
-impl Entries {
-    /// Fills the buckets, a grid of `dims` numbered x-fastest, by a counting sort: photon i
-    /// enters every bucket of `spans[i]`. Each bucket lists its photons in index order, so the
-    /// result does not depend on the thread count. Bands of z-slices are counted and scattered in
-    /// parallel; each band sees every span, clipped to its slices.
-    fn fill(&mut self, dims: IVec3, photons: &[VolumePhoton], spans: &[Span]) {
-        let slab = (dims.x * dims.y) as usize;
-        let buckets = slab * dims.z as usize;
-        let slices = (dims.z as usize).div_ceil(BANDS);
-        let band = slab * slices;
-        self.start.clear();
-        self.start.resize(buckets + 1, 0);
-        self.start[1..].par_chunks_mut(band).enumerate().for_each(|(k, count)| {
-            each_in_slices(
-                spans,
-                dims,
-                (k * slices) as i32,
-                ((k + 1) * slices) as i32 - 1,
-                |b, _| count[b - k * band] += 1,
-            );
-        });
-        for b in 0..buckets {
-            self.start[b + 1] += self.start[b];
-        }
-        // Scatter the photon indices, each band into its own part of the entries.
-        self.idx.resize(self.start[buckets] as usize, 0);
-        let mut parts = Vec::with_capacity(BANDS);
-        let mut rest = &mut self.idx[..];
-        for k in 0..buckets.div_ceil(band) {
-            let (lo, hi) = (k * band, ((k + 1) * band).min(buckets));
-            let (part, tail) = rest.split_at_mut((self.start[hi] - self.start[lo]) as usize);
-            parts.push((k, part));
-            rest = tail;
-        }
-        let start = &self.start;
-        parts.into_par_iter().for_each(|(k, out)| {
-            let lo = k * band;
-            let hi = (lo + band).min(buckets);
-            let mut cursor: Vec<u32> = start[lo..hi].iter().map(|&s| s - start[lo]).collect();
-            each_in_slices(
-                spans,
-                dims,
-                (k * slices) as i32,
-                ((k + 1) * slices) as i32 - 1,
-                |b, i| {
-                    let c = &mut cursor[b - lo];
-                    out[*c as usize] = i;
-                    *c += 1;
-                },
-            );
-        });
-        // Gather the positions (sequential writes, in parallel).
-        let n = self.idx.len();
-        for v in [&mut self.x, &mut self.y, &mut self.z] {
-            v.resize(n, 0.0);
-        }
-        const CHUNK: usize = 1 << 14;
-        self.idx
-            .par_chunks(CHUNK)
-            .zip(self.x.par_chunks_mut(CHUNK))
-            .zip(self.y.par_chunks_mut(CHUNK))
-            .zip(self.z.par_chunks_mut(CHUNK))
-            .for_each(|(((idx, x), y), z)| {
-                for (k, &i) in idx.iter().enumerate() {
-                    let p = photons[i as usize].p;
-                    (x[k], y[k], z[k]) = (p.x, p.y, p.z);
-                }
-            });
-    }
-
-    /// Calls `f(index, t_p, d²)` for every entry of bucket `b` within the radius of the ray whose
-    /// projection t_p onto it satisfies t_p ≥ `t_lo`, t_p < `t_hi` and t_p > 0.
-    #[inline(always)]
-    fn scan(&self, b: usize, ray: &Lanes, t_lo: f32, t_hi: f32, mut f: impl FnMut(u32, f32, f32)) {
-        let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
-        let (xs, ys, zs) = (&self.x[s..e], &self.y[s..e], &self.z[s..e]);
-        let (lo, hi, r2) = (Vec4::splat(t_lo.max(0.0)), Vec4::splat(t_hi), Vec4::splat(ray.r2));
-        // Four entries at a time (SSE through glam's Vec4), the rare hits one by one.
-        let mut j = 0;
-        while j + 4 <= xs.len() {
-            let vx = Vec4::from_slice(&xs[j..j + 4]) - ray.ox;
-            let vy = Vec4::from_slice(&ys[j..j + 4]) - ray.oy;
-            let vz = Vec4::from_slice(&zs[j..j + 4]) - ray.oz;
-            let t = vx * ray.dx + vy * ray.dy + vz * ray.dz;
-            let d2 = vx * vx + vy * vy + vz * vz - t * t;
-            let mut mask = (d2.cmplt(r2) & t.cmpge(lo) & t.cmplt(hi)).bitmask();
-            while mask != 0 {
-                let k = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                if t[k] > 0.0 {
-                    f(self.idx[s + j + k], t[k], d2[k].max(0.0));
-                }
-            }
-            j += 4;
-        }
-        for k in j..xs.len() {
-            let v = Vec3::new(xs[k], ys[k], zs[k]) - ray.o;
-            let t = v.dot(ray.d);
-            let d2 = v.length_squared() - t * t;
-            if d2 < ray.r2 && t >= t_lo && t < t_hi && t > 0.0 {
-                f(self.idx[s + k], t, d2.max(0.0));
-            }
-        }
-    }
-}
-
-/// Bins on the image plane of a pinhole camera, in the plane's tangent coordinates
-/// (u, v) = (x/z, y/z) of the camera frame (x right, y up, z forward).
-#[derive(Default)]
-struct ViewBins {
-    entries: Entries,
-    eye: Vec3,
-    right: Vec3,
-    up: Vec3,
-    forward: Vec3,
-    /// Lower corner of bin (0, 0), in (u, v).
-    u0: f32,
-    v0: f32,
-    inv_bin: f32,
-    nx: i32,
-    ny: i32,
-    /// Squared distance from the eye a segment's line may pass at and still use the bins.
-    margin2: f32,
-    /// Radius of the spheres entered: the query radius grown by the margin.
-    grow: f32,
-}
-
-impl ViewBins {
-    /// Sets up bins for `camera` over `photons` queried with radius `radius`; false for cameras
-    /// that are not pinholes, and when the bins would hold more than `MAX_VIEW_ENTRIES_PER_PHOTON`
-    /// entries per photon.
-    fn setup(&mut self, camera: &Camera, photons: &[VolumePhoton], radius: f32) -> bool {
-        let Projection::Perspective { tan_half_fov, lens_radius, .. } = camera.projection else {
-            return false;
-        };
-        if lens_radius > 0.0 {
-            return false;
-        }
-        let [w, h] = camera.resolution;
-        (self.eye, self.right, self.up, self.forward) =
-            (camera.position, camera.right, camera.up, camera.forward);
-        let margin = VIEW_LINE_MARGIN * radius;
-        self.margin2 = margin * margin;
-        self.grow = radius * 1.001 + margin;
-        // Pixels are square: 2 tan(fov/2) / height on both axes.
-        let pixel = 2.0 * tan_half_fov / h as f32;
-        // The median radius, in pixels, of the projections of the photons in front of the eye
-        // sets the bin size.
-        let mut depth: Vec<f32> = photons
-            .iter()
-            .step_by(photons.len().div_ceil(4096).max(1))
-            .map(|p| (p.p - self.eye).dot(self.forward))
-            .filter(|&z| z > self.grow)
-            .collect();
-        let footprint = if depth.is_empty() {
-            1.0
-        } else {
-            let n = depth.len();
-            self.grow / *depth.select_nth_unstable_by(n / 2, f32::total_cmp).1 / pixel
-        };
-        let bin_pixels = (footprint * BIN_PER_FOOTPRINT).clamp(1.0, MAX_BIN_PIXELS).round();
-        self.inv_bin = 1.0 / (bin_pixels * pixel);
-        self.nx = (w as f32 / bin_pixels).ceil() as i32;
-        self.ny = (h as f32 / bin_pixels).ceil() as i32;
-        self.u0 = -tan_half_fov * camera.aspect();
-        self.v0 = -tan_half_fov;
-        // Entries per photon, from an evenly strided sample.
-        let stride = photons.len().div_ceil(1 << 15);
-        let sample: Vec<&VolumePhoton> = photons.iter().step_by(stride).collect();
-        let entries: usize = sample
-            .par_iter()
-            .map(|p| {
-                self.footprint(p.p)
-                    .map_or(0, |(a, b)| (b - a + IVec3::ONE).element_product() as usize)
-            })
-            .sum();
-        entries <= MAX_VIEW_ENTRIES_PER_PHOTON * sample.len()
-    }
-
-    /// Enters `photons` in the bins (set up by `setup`).
-    fn fill(&mut self, photons: &[VolumePhoton], spans: &mut Vec<Span>) {
-        spans.clear();
-        spans.par_extend(photons.par_iter().map(|p| self.footprint(p.p).unwrap_or(NO_SPAN)));
-        // Rows of bins are the grid's z-slices, so that bands of rows are filled in parallel.
-        self.entries.fill(IVec3::new(self.nx, 1, self.ny), photons, spans);
-    }
-
-    /// The bin that `p` projects to; one past the last bin if it lies behind the eye or outside.
-    fn centre_bin(&self, p: Vec3) -> u32 {
-        let c = p - self.eye;
-        let z = c.dot(self.forward);
-        let bx = (c.dot(self.right) / z - self.u0) * self.inv_bin;
-        let by = (c.dot(self.up) / z - self.v0) * self.inv_bin;
-        if z > 0.0 && bx >= 0.0 && by >= 0.0 && bx < self.nx as f32 && by < self.ny as f32 {
-            by as u32 * self.nx as u32 + bx as u32
-        } else {
-            (self.nx * self.ny) as u32
-        }
-    }
-
-    /// The bins (inclusive corners) that the projection of the sphere of radius `grow` around `p`
-    /// overlaps, if any: the projection lies within the bounds of the camera-aligned cube around
-    /// the sphere, and only its part in front of the eye (z > 0) matters.
-    fn footprint(&self, p: Vec3) -> Option<Span> {
-        let grow = self.grow;
-        let c = p - self.eye;
-        let (x, y, z) = (c.dot(self.right), c.dot(self.up), c.dot(self.forward));
-        let (z0, z1) = (z - grow, z + grow);
-        if z1 <= 0.0 {
-            return None;
-        }
-        // Bounds of c/z over c ∈ [c0, c1], z ∈ [z0, z1] ∩ (0, ∞).
-        let range = |c0: f32, c1: f32| {
-            if z0 > 0.0 {
-                ((c0 / z0).min(c0 / z1), (c1 / z0).max(c1 / z1))
-            } else {
-                (
-                    if c0 >= 0.0 { c0 / z1 } else { f32::NEG_INFINITY },
-                    if c1 <= 0.0 { c1 / z1 } else { f32::INFINITY },
-                )
-            }
-        };
-        let to_bins = |(lo, hi): (f32, f32), origin: f32, n: i32| {
-            // A margin for the rounding of these bounds and of the query's own projection.
-            let size = |v: f32| if v.is_finite() { v.abs() } else { 0.0 };
-            let pad = 1e-6 * (1.0 + size(lo).max(size(hi)));
-            let (a, b) = ((lo - pad - origin) * self.inv_bin, (hi + pad - origin) * self.inv_bin);
-            if b < 0.0 || a >= n as f32 {
-                return None;
-            }
-            Some((a.max(0.0) as i32, (b.min(n as f32 - 1.0) as i32).min(n - 1)))
-        };
-        let (ax, bx) = to_bins(range(x - grow, x + grow), self.u0, self.nx)?;
-        let (ay, by) = to_bins(range(y - grow, y + grow), self.v0, self.ny)?;
-        Some((IVec3::new(ax, 0, ay), IVec3::new(bx, 0, by)))
-    }
-
-    /// The bin holding every photon a query along o + t d (t > 0) can find, if the segment lies on
-    /// a ray from the eye (within the margin) that pierces the image plane inside the bins.
-    #[inline]
-    fn bin(&self, o: Vec3, d: Vec3) -> Option<usize> {
-        let z = d.dot(self.forward);
-        let rel = o - self.eye;
-        if z <= 0.0 || rel.dot(d) < 0.0 || rel.cross(d).length_squared() > self.margin2 {
-            return None;
-        }
-        let bx = (d.dot(self.right) / z - self.u0) * self.inv_bin;
-        let by = (d.dot(self.up) / z - self.v0) * self.inv_bin;
-        if bx >= 0.0 && by >= 0.0 && bx < self.nx as f32 && by < self.ny as f32 {
-            Some(by as usize * self.nx as usize + bx as usize)
-        } else {
-            None
-        }
-    }
 }
 
 /// The extent of a photon cloud and the cell sizes that hold a given number of its photons.
@@ -462,6 +129,8 @@ pub struct BeamMap {
     lo: Vec3,
     /// Axes from the fastest-varying in the cell numbering to the slowest.
     axes: [usize; 3],
+    /// Index step per cell along x, y and z (derived from `axes` and `dims`).
+    stride: IVec3,
     /// Bins for segments on rays from the eye, when the camera is a pinhole.
     view: ViewBins,
     view_active: bool,
@@ -496,8 +165,7 @@ impl BeamMap {
     /// Index of cell `c` (which must lie in the grid).
     #[inline]
     fn index(&self, c: IVec3) -> usize {
-        let (c, d) = (self.swizzle(c), self.swizzle(self.dims));
-        (c.x + d.x * (c.y + d.y * c.z)) as usize
+        (c * self.stride).element_sum() as usize
     }
 
     /// Cell coordinates reordered from the fastest-varying axis of the cell numbering to the
@@ -579,6 +247,10 @@ impl BeamMap {
             let slow = dominant(self.view.up, Some(fast)).unwrap_or((fast + 1) % 3);
             self.axes = [fast, 3 - fast - slow, slow];
         }
+        let [a, b, c] = self.axes;
+        self.stride[a] = 1;
+        self.stride[b] = self.dims[a];
+        self.stride[c] = self.dims[a] * self.dims[b];
     }
 
     /// Puts the photons, with their powers replaced by `weight` and thinned, into `spare`.
@@ -685,8 +357,10 @@ impl BeamMap {
 
 #[cfg(test)]
 mod tests {
+    use super::super::view::VIEW_LINE_MARGIN;
     use super::*;
     use crate::rng::{Purpose, Sampler};
+    use crate::scene::camera::Projection;
     use glam::Vec2;
 
     fn cloud(s: &mut Sampler, n: usize, centre: Vec3, half: f32) -> Vec<VolumePhoton> {

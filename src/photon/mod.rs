@@ -1,8 +1,10 @@
 //! The photon pass and the photon maps.
 
 pub mod beam;
+mod entries;
 pub mod map;
 pub mod trace;
+mod view;
 
 use crate::math::Rgb;
 use glam::Vec3;

@@ -65,8 +65,7 @@ impl LightSampler {
     pub fn pick(&self, u: f32) -> (usize, f32) {
         let target = u * self.total;
         let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        (i, (self.cdf[i] - lo) / self.total)
+        (i, self.prob(i))
     }
 }
 

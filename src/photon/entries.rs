@@ -1,0 +1,186 @@
+//! Photon entries grouped into buckets — the cells of a grid or the bins of an image plane — built
+//! by a parallel counting sort whose result does not depend on the thread count, and scanned four
+//! at a time against a query ray.
+
+use super::VolumePhoton;
+use glam::{IVec3, Vec3, Vec4};
+use rayon::prelude::*;
+
+/// An inclusive box of buckets (empty when a coordinate of the first corner exceeds the second's).
+pub(super) type Span = (IVec3, IVec3);
+
+/// The empty span.
+pub(super) const NO_SPAN: Span = (IVec3::ONE, IVec3::ZERO);
+
+/// Bands of buckets filled in parallel (a constant: the result does not depend on it).
+const BANDS: usize = 4;
+
+/// Photon entries grouped by bucket (a grid cell or a view bin): `start[b]..start[b + 1]` are
+/// bucket b's entries, each the photon's position (read by every test) and its index.
+#[derive(Default)]
+pub(super) struct Entries {
+    pub(super) start: Vec<u32>,
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    idx: Vec<u32>,
+}
+
+/// A query ray, splatted for four-wide tests.
+pub(super) struct Lanes {
+    o: Vec3,
+    d: Vec3,
+    r2: f32,
+    ox: Vec4,
+    oy: Vec4,
+    oz: Vec4,
+    dx: Vec4,
+    dy: Vec4,
+    dz: Vec4,
+}
+
+impl Lanes {
+    pub(super) fn new(o: Vec3, d: Vec3, r: f32) -> Self {
+        Self {
+            o,
+            d,
+            r2: r * r,
+            ox: Vec4::splat(o.x),
+            oy: Vec4::splat(o.y),
+            oz: Vec4::splat(o.z),
+            dx: Vec4::splat(d.x),
+            dy: Vec4::splat(d.y),
+            dz: Vec4::splat(d.z),
+        }
+    }
+}
+
+/// Calls `f(bucket, i)` for every bucket of every span `spans[i]` that lies in the z-slices
+/// `z0..=z1` of a grid of `dims` numbered x-fastest, in the order of the spans.
+#[inline(always)]
+fn each_in_slices(spans: &[Span], dims: IVec3, z0: i32, z1: i32, mut f: impl FnMut(usize, u32)) {
+    for (i, (a, b)) in spans.iter().enumerate() {
+        let i = i as u32;
+        for z in a.z.max(z0)..=b.z.min(z1) {
+            for y in a.y..=b.y {
+                let row = (dims.x * (y + dims.y * z)) as usize;
+                for x in a.x..=b.x {
+                    f(row + x as usize, i);
+                }
+            }
+        }
+    }
+}
+
+impl Entries {
+    /// Fills the buckets, a grid of `dims` numbered x-fastest, by a counting sort: photon i
+    /// enters every bucket of `spans[i]`. Each bucket lists its photons in index order, so the
+    /// result does not depend on the thread count. Bands of z-slices are counted and scattered in
+    /// parallel; each band sees every span, clipped to its slices.
+    pub(super) fn fill(&mut self, dims: IVec3, photons: &[VolumePhoton], spans: &[Span]) {
+        let slab = (dims.x * dims.y) as usize;
+        let buckets = slab * dims.z as usize;
+        let slices = (dims.z as usize).div_ceil(BANDS);
+        let band = slab * slices;
+        self.start.clear();
+        self.start.resize(buckets + 1, 0);
+        self.start[1..].par_chunks_mut(band).enumerate().for_each(|(k, count)| {
+            each_in_slices(
+                spans,
+                dims,
+                (k * slices) as i32,
+                ((k + 1) * slices) as i32 - 1,
+                |b, _| count[b - k * band] += 1,
+            );
+        });
+        for b in 0..buckets {
+            self.start[b + 1] += self.start[b];
+        }
+        // Scatter the photon indices, each band into its own part of the entries.
+        self.idx.resize(self.start[buckets] as usize, 0);
+        let mut parts = Vec::with_capacity(BANDS);
+        let mut rest = &mut self.idx[..];
+        for k in 0..buckets.div_ceil(band) {
+            let (lo, hi) = (k * band, ((k + 1) * band).min(buckets));
+            let (part, tail) = rest.split_at_mut((self.start[hi] - self.start[lo]) as usize);
+            parts.push((k, part));
+            rest = tail;
+        }
+        let start = &self.start;
+        parts.into_par_iter().for_each(|(k, out)| {
+            let lo = k * band;
+            let hi = (lo + band).min(buckets);
+            let mut cursor: Vec<u32> = start[lo..hi].iter().map(|&s| s - start[lo]).collect();
+            each_in_slices(
+                spans,
+                dims,
+                (k * slices) as i32,
+                ((k + 1) * slices) as i32 - 1,
+                |b, i| {
+                    let c = &mut cursor[b - lo];
+                    out[*c as usize] = i;
+                    *c += 1;
+                },
+            );
+        });
+        // Gather the positions (sequential writes, in parallel).
+        let n = self.idx.len();
+        for v in [&mut self.x, &mut self.y, &mut self.z] {
+            v.resize(n, 0.0);
+        }
+        const CHUNK: usize = 1 << 14;
+        self.idx
+            .par_chunks(CHUNK)
+            .zip(self.x.par_chunks_mut(CHUNK))
+            .zip(self.y.par_chunks_mut(CHUNK))
+            .zip(self.z.par_chunks_mut(CHUNK))
+            .for_each(|(((idx, x), y), z)| {
+                for (k, &i) in idx.iter().enumerate() {
+                    let p = photons[i as usize].p;
+                    (x[k], y[k], z[k]) = (p.x, p.y, p.z);
+                }
+            });
+    }
+
+    /// Calls `f(index, t_p, d²)` for every entry of bucket `b` within the radius of the ray whose
+    /// projection t_p onto it satisfies t_p ≥ `t_lo`, t_p < `t_hi` and t_p > 0.
+    #[inline(always)]
+    pub(super) fn scan(
+        &self,
+        b: usize,
+        ray: &Lanes,
+        t_lo: f32,
+        t_hi: f32,
+        mut f: impl FnMut(u32, f32, f32),
+    ) {
+        let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
+        let (xs, ys, zs) = (&self.x[s..e], &self.y[s..e], &self.z[s..e]);
+        let (lo, hi, r2) = (Vec4::splat(t_lo.max(0.0)), Vec4::splat(t_hi), Vec4::splat(ray.r2));
+        // Four entries at a time (SSE through glam's Vec4), the rare hits one by one.
+        let mut j = 0;
+        while j + 4 <= xs.len() {
+            let vx = Vec4::from_slice(&xs[j..j + 4]) - ray.ox;
+            let vy = Vec4::from_slice(&ys[j..j + 4]) - ray.oy;
+            let vz = Vec4::from_slice(&zs[j..j + 4]) - ray.oz;
+            let t = vx * ray.dx + vy * ray.dy + vz * ray.dz;
+            let d2 = vx * vx + vy * vy + vz * vz - t * t;
+            let mut mask = (d2.cmplt(r2) & t.cmpge(lo) & t.cmplt(hi)).bitmask();
+            while mask != 0 {
+                let k = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if t[k] > 0.0 {
+                    f(self.idx[s + j + k], t[k], d2[k].max(0.0));
+                }
+            }
+            j += 4;
+        }
+        for k in j..xs.len() {
+            let v = Vec3::new(xs[k], ys[k], zs[k]) - ray.o;
+            let t = v.dot(ray.d);
+            let d2 = v.length_squared() - t * t;
+            if d2 < ray.r2 && t >= t_lo && t < t_hi && t > 0.0 {
+                f(self.idx[s + k], t, d2.max(0.0));
+            }
+        }
+    }
+}
