@@ -88,11 +88,25 @@ pub struct Accel {
     tags: Vec<u32>,
 }
 
-/// An obvhs ray. Negative-zero direction components become +0: obvhs 0.4 inverts a zero
-/// component to ±1/ε by its sign bit but picks the slab order by `d < 0`, so a −0 component makes
-/// every node test miss (a ray straight down −z hit nothing before this).
+/// How far a ray's origin is moved back along the ray before traversal (see [`to_ray`]).
+const BACK_OFF: f32 = 2e-4;
+
+/// An obvhs ray for `o + t d`, 0 < t < `t_max`, whose parameter is shifted by [`BACK_OFF`]:
+/// the returned ray starts at o − `BACK_OFF`·d and accepts BACK_OFF ≤ t' ≤ t_max + BACK_OFF, so
+/// t = t' − BACK_OFF.
+///
+/// - obvhs 0.4's CWBVH traversal clamps every node's entry distance to at least 10⁻⁴
+///   (`cwbvh::node::EPSILON`, whatever the ray's own `tmin`), so a node whose box the ray leaves
+///   within 10⁻⁴ of its origin is skipped: a ray from a point less than 10⁻⁴ below a flat face
+///   never hit it (a shadow ray from a collision just inside a medium escaped through its
+///   boundary, darkening the singly scattered light of a half-space by 0.03 %). Starting the
+///   traversal 2·10⁻⁴ behind the origin puts every hit with t > 0 beyond that clamp.
+/// - Negative-zero direction components become +0: obvhs 0.4 inverts a zero component to ±1/ε
+///   by its sign bit but picks the slab order by `d < 0`, so a −0 component makes every node test
+///   miss (a ray straight down −z hit nothing before this).
 fn to_ray(o: Vec3, d: Vec3, t_max: f32) -> Ray {
-    Ray::new(o.into(), (d + Vec3::ZERO).into(), 0.0, t_max)
+    let d = d + Vec3::ZERO;
+    Ray::new((o - d * BACK_OFF).into(), d.into(), BACK_OFF, t_max + BACK_OFF)
 }
 
 impl Accel {
@@ -135,7 +149,7 @@ impl Accel {
             return None;
         }
         let id = hit.primitive_id as usize;
-        let t = hit.t;
+        let t = hit.t - BACK_OFF;
         let p = o + d * t;
         let (ng, ns) = match &self.prims[id] {
             Stored::Triangle(tri, normals) => {
@@ -227,6 +241,46 @@ mod tests {
         let down = -Vec3::Z; // (−0, −0, −1)
         assert!(accel.intersect(Vec3::new(0.2, 0.2, 1.0), down, f32::INFINITY).is_some());
         assert!(!accel.unoccluded(Vec3::new(0.2, 0.2, 1.0), down, 2.0));
+    }
+
+    /// obvhs skips nodes the ray leaves within 10⁻⁴ of its origin; the traversal must still find
+    /// a flat face a hair away, from either side, and report the distance from the true origin.
+    #[test]
+    fn faces_closer_than_the_traversal_epsilon_are_hit() {
+        let tris = [
+            Primitive::Triangle {
+                p: [
+                    Vec3::new(-5.0, 0.0, -1.0),
+                    Vec3::new(5.0, 0.0, -1.0),
+                    Vec3::new(5.0, 0.0, 1.0),
+                ],
+                normals: None,
+                tag: 0,
+            },
+            Primitive::Triangle {
+                p: [
+                    Vec3::new(-5.0, 0.0, -1.0),
+                    Vec3::new(5.0, 0.0, 1.0),
+                    Vec3::new(-5.0, 0.0, 1.0),
+                ],
+                normals: None,
+                tag: 0,
+            },
+        ];
+        let accel = Accel::build(&tris);
+        for gap in [1e-6f32, 3e-5, 7.5e-5, 2e-4, 1e-3] {
+            for (x, z) in [(0.3f32, 0.2f32), (-2.7, -0.48), (4.1, 0.9)] {
+                let below = Vec3::new(x, -gap, z);
+                let h = accel.intersect(below, Vec3::Y, f32::INFINITY).expect("hit from below");
+                assert!((h.t - gap).abs() < 1e-6 + 1e-3 * gap, "gap {gap}: t = {}", h.t);
+                assert!(h.p.y.abs() < 1e-6, "gap {gap}: p = {}", h.p);
+                assert!(accel.intersect(Vec3::new(x, gap, z), -Vec3::Y, 1.0).is_some());
+                assert!(!accel.unoccluded(below, Vec3::Y, 1.0), "gap {gap}");
+                // Nothing behind the origin counts, nor beyond t_max.
+                assert!(accel.intersect(below, -Vec3::Y, f32::INFINITY).is_none());
+                assert!(accel.intersect(below, Vec3::Y, 0.5 * gap).is_none());
+            }
+        }
     }
 
     #[test]
