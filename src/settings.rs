@@ -9,7 +9,8 @@
 //! radius_fraction = 0.01    # initial radius relative to the scene's bounding-box diagonal …
 //! # radius = 0.02           # … or absolute, in scene units (give one of the two)
 //! kernel = "epanechnikov"   # "constant", "epanechnikov" or "biweight"
-//! max_depth = 16            # maximum scattering events on light and eye paths
+//! max_depth = 16            # maximum scattering events on light and eye paths (pass-through
+//!                           # interfaces are not events)
 //! seed = 0
 //! volume_estimate = "beam"  # in-scattering estimate in media: "beam" or "point"
 //! volume_alpha = 0.5        # α of the volume schedule r³(i+1)/r³(i) = (i+α)/(i+1)
@@ -124,7 +125,8 @@ pub struct RenderSettings {
     pub radius: Radius,
     /// Density-estimation kernel.
     pub kernel: Kernel,
-    /// Maximum number of scattering events on a path.
+    /// Maximum number of scattering events on a path: medium collisions and surface scatterings;
+    /// crossing a pass-through interface is not one.
     pub max_depth: u32,
     /// Seed of every random stream.
     pub seed: u64,

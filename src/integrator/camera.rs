@@ -14,7 +14,7 @@ use crate::photon::map::PhotonGrid;
 use crate::photon::{Photon, VolumePhoton};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
-use crate::scene::material::Transport;
+use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
 use crate::settings::VolumeEstimate;
 use glam::Vec2;
 use std::sync::atomic::{AtomicBool, AtomicU64};
@@ -36,7 +36,8 @@ pub struct CameraPass {
     pub seed: u64,
     /// Iteration number (1-based).
     pub iteration: u64,
-    /// Maximum scattering events per eye path.
+    /// Maximum scattering events per eye path (pass-through interfaces are not events): the path
+    /// follows at most `max_depth − 1` specular bounces.
     pub max_depth: u32,
     /// Surface density estimation.
     pub surface: Gather,
@@ -97,7 +98,9 @@ pub(crate) fn trace_eye(
     let mut medium = scene.camera_medium;
     let mut beta = Rgb::ONE;
     let mut l = Rgb::ZERO;
-    for _ in 0..pass.max_depth {
+    // Specular bounces so far, and pass-through crossings (which are not scattering events).
+    let (mut bounces, mut crossings) = (0u32, 0u32);
+    loop {
         let hit = scene.intersect(o, d, f32::INFINITY);
         if let Some(id) = medium {
             let m = &scene.media[id as usize];
@@ -142,10 +145,24 @@ pub(crate) fn trace_eye(
             }
         }
         let material = &scene.materials[shape.material as usize];
+        if *material == Material::Interface {
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                break;
+            }
+            medium = shape.medium_after(medium, wo, d, hit.ng);
+            o = offset_origin(hit.p, hit.ng, d);
+            continue;
+        }
         if material.is_diffuse() {
             let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
             let f = material.diffuse_f();
             l += at_diffuse(hit.p, n, f, beta);
+            break;
+        }
+        // A specular bounce is a scattering event; pass-through crossings above were not.
+        bounces += 1;
+        if bounces >= pass.max_depth {
             break;
         }
         let Some(bs) =

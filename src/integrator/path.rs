@@ -24,7 +24,7 @@ use crate::photon::trace::LightSampler;
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
 use crate::scene::light::Light;
-use crate::scene::material::{Material, Transport};
+use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
 use glam::{Vec2, Vec3};
 use std::sync::atomic::{AtomicBool, AtomicU64};
 
@@ -35,7 +35,8 @@ pub struct PathPass {
     pub seed: u64,
     /// Iteration number (1-based).
     pub iteration: u64,
-    /// Maximum scattering events per path.
+    /// Maximum scattering events per path, surface and medium (pass-through interfaces are not
+    /// events): light paths of up to `max_depth` scattering events are counted.
     pub max_depth: u32,
 }
 
@@ -120,7 +121,7 @@ fn shadow(
     // and the light itself then blocked the shadow ray.)
     let end = if dist.is_finite() { Some(o + d * dist) } else { None };
     let mut d = d;
-    for _ in 0..64 {
+    for _ in 0..=MAX_CROSSINGS {
         let hit = scene.intersect(o, d, left);
         let t = hit.map_or(left, |h| h.t);
         if let Some(id) = medium {
@@ -215,7 +216,9 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
     // After a diffuse or phase-function scattering: where it happened and the density of the
     // direction taken, for the MIS weight of an emitter the path reaches.
     let mut scattered_from: Option<(Vec3, f32)> = None;
-    for depth in 0..pass.max_depth {
+    // Scattering events so far (pass-through interfaces are not events), and crossings.
+    let (mut depth, mut crossings) = (0u32, 0u32);
+    loop {
         // The direction sampled at the last vertex is never followed.
         let last = depth + 1 == pass.max_depth;
         let hit = scene.intersect(o, d, f32::INFINITY);
@@ -240,6 +243,9 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
                         |wi| Rgb::splat(phase.eval(d_in, wi)),
                         |wi| if last { 0.0 } else { phase.eval(d_in, wi) },
                     );
+                if last {
+                    break;
+                }
                 beta *= sigma_s;
                 let ps = phase.sample(d, s.next_2d());
                 d = ps.d_out;
@@ -249,6 +255,7 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
                 if !roulette(&mut beta, depth, &mut s) {
                     break;
                 }
+                depth += 1;
                 continue;
             }
             if beta.max_element() <= 0.0 {
@@ -269,51 +276,73 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
             }
         }
         let material = &scene.materials[shape.material as usize];
-        if let Material::Diffuse { albedo } = material {
-            let ng = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-            let ns = if hit.ns.dot(ng) >= 0.0 { hit.ns } else { -hit.ns };
-            let f = material.diffuse_f();
-            let p = offset_origin(hit.p, ng, ng);
-            let pdf = |wi: Vec3| {
-                if wi.dot(ng) <= 0.0 {
-                    0.0
-                } else {
-                    wi.dot(ns).max(0.0) * std::f32::consts::FRAC_1_PI
+        match material {
+            // A pass-through interface changes nothing but the medium (shadow rays pass through
+            // it too), so the emission decision and the MIS state stand.
+            Material::Interface => {
+                crossings += 1;
+                if crossings > MAX_CROSSINGS {
+                    break;
                 }
-            };
-            l += beta
-                * next_event(
-                    scene,
-                    lights,
-                    p,
-                    medium,
-                    &mut s,
-                    |wi| if wi.dot(ng) <= 0.0 { Rgb::ZERO } else { f * wi.dot(ns).max(0.0) },
-                    |wi| if last { 0.0 } else { pdf(wi) },
-                );
-            let wi = Frame::new(ns).to_world(sample_cosine_hemisphere(s.next_2d()));
-            if wi.dot(ng) <= 0.0 {
-                break;
+                medium = shape.medium_after(medium, wo, d, hit.ng);
+                o = offset_origin(hit.p, hit.ng, d);
+                continue;
             }
-            beta *= *albedo;
-            o = p;
-            d = wi;
-            count_emission = false;
-            scattered_from = Some((p, pdf(wi)));
-        } else {
-            let Some(bs) =
-                material.sample(wo, hit.ng, hit.ns, s.next_2d(), s.next_f32(), Transport::Radiance)
-            else {
-                break;
-            };
-            beta *= bs.weight;
-            medium = shape.medium_after(medium, wo, bs.wi, hit.ng);
-            o = offset_origin(hit.p, hit.ng, bs.wi);
-            d = bs.wi;
-            // After a mirror or glass bounce next-event estimation could not have found the
-            // emitter, so count it when hit; a pass-through interface changes nothing (shadow
-            // rays pass through it), so the previous decision stands.
-            if *material != Material::Interface {
+            Material::Diffuse { albedo } => {
+                let ng = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+                let ns = if hit.ns.dot(ng) >= 0.0 { hit.ns } else { -hit.ns };
+                let f = material.diffuse_f();
+                let p = offset_origin(hit.p, ng, ng);
+                let pdf = |wi: Vec3| {
+                    if wi.dot(ng) <= 0.0 {
+                        0.0
+                    } else {
+                        wi.dot(ns).max(0.0) * std::f32::consts::FRAC_1_PI
+                    }
+                };
+                l += beta
+                    * next_event(
+                        scene,
+                        lights,
+                        p,
+                        medium,
+                        &mut s,
+                        |wi| if wi.dot(ng) <= 0.0 { Rgb::ZERO } else { f * wi.dot(ns).max(0.0) },
+                        |wi| if last { 0.0 } else { pdf(wi) },
+                    );
+                if last {
+                    break;
+                }
+                let wi = Frame::new(ns).to_world(sample_cosine_hemisphere(s.next_2d()));
+                if wi.dot(ng) <= 0.0 {
+                    break;
+                }
+                beta *= *albedo;
+                o = p;
+                d = wi;
+                count_emission = false;
+                scattered_from = Some((p, pdf(wi)));
+            }
+            _ => {
+                if last {
+                    break;
+                }
+                let Some(bs) = material.sample(
+                    wo,
+                    hit.ng,
+                    hit.ns,
+                    s.next_2d(),
+                    s.next_f32(),
+                    Transport::Radiance,
+                ) else {
+                    break;
+                };
+                beta *= bs.weight;
+                medium = shape.medium_after(medium, wo, bs.wi, hit.ng);
+                o = offset_origin(hit.p, hit.ng, bs.wi);
+                d = bs.wi;
+                // After a mirror or glass bounce next-event estimation could not have found the
+                // emitter, so count it when hit.
                 count_emission = true;
                 scattered_from = None;
             }
@@ -321,6 +350,7 @@ fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32,
         if !roulette(&mut beta, depth, &mut s) {
             break;
         }
+        depth += 1;
     }
     l
 }

@@ -9,7 +9,7 @@ use super::{Photon, VolumePhoton};
 use crate::math::{Rgb, luminance, offset_origin};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
-use crate::scene::material::Transport;
+use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -78,7 +78,8 @@ pub struct PhotonPass {
     pub iteration: u64,
     /// Light paths to emit.
     pub paths: u64,
-    /// Maximum scattering events per path.
+    /// Maximum scattering events per path (pass-through interfaces are not events): a photon is
+    /// stored at each of its first `max_depth` scattering vertices at most.
     pub max_depth: u32,
 }
 
@@ -117,7 +118,10 @@ fn trace_path(
     let mut medium = scene.light_media[li];
     let mut o = if e.n == glam::Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
     let mut d = e.d;
-    for _ in 0..pass.max_depth {
+    // Scattering events so far (medium collisions and surface scatterings; pass-through
+    // interfaces are not events), and pass-through crossings.
+    let (mut bounces, mut crossings) = (0u32, 0u32);
+    loop {
         let hit = scene.intersect(o, d, f32::INFINITY);
         if let Some(id) = medium {
             let m = &scene.media[id as usize];
@@ -131,6 +135,10 @@ fn trace_path(
                 // Where σ_s = 0 the photon could only ever be weighted by zero: skip it.
                 if sigma_s.max_element() > 0.0 {
                     out.volume.push(VolumePhoton { p, d, beta, medium: id });
+                }
+                bounces += 1;
+                if bounces >= pass.max_depth {
+                    return;
                 }
                 let ps = m.phase().sample(d, s.next_2d());
                 // Phase sampling is exact, so the scattering weight is σ_s alone.
@@ -151,10 +159,24 @@ fn trace_path(
         let wo = -d;
         let shape = &scene.shapes[hit.tag as usize];
         let material = &scene.materials[shape.material as usize];
+        if *material == Material::Interface {
+            // Index-matched: the photon goes straight on into the medium on the far side.
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                return;
+            }
+            medium = shape.medium_after(medium, wo, d, hit.ng);
+            o = offset_origin(hit.p, hit.ng, d);
+            continue;
+        }
         if material.is_diffuse() {
             // Power convention (see `Photon`): store the path throughput as it arrives.
             let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
             out.surface.push(Photon { p: hit.p, wi: wo, n, beta });
+        }
+        bounces += 1;
+        if bounces >= pass.max_depth {
+            return;
         }
         let u = s.next_2d();
         let u_lobe = s.next_f32();

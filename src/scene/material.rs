@@ -43,6 +43,11 @@ pub enum Material {
     Interface,
 }
 
+/// Most pass-through interfaces one path (or shadow ray) crosses. Crossings are not scattering
+/// events and do not count towards `max_depth`; this bound keeps stacked or coincident
+/// interfaces from making a path's work unbounded.
+pub const MAX_CROSSINGS: u32 = 256;
+
 /// Which quantity a path carries; refraction scales radiance but not power (Veach 1997, §5.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Transport {
