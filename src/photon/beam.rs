@@ -382,9 +382,8 @@ mod tests {
         let mut want: Vec<[f32; 3]> = photons
             .iter()
             .filter(|ph| {
-                let v = ph.p - o;
-                let t = v.dot(d);
-                t > 0.0 && t < t_max && v.length_squared() - t * t < r * r
+                let (t, d2) = super::super::entries::distance2(ph.p - o, d);
+                t > 0.0 && t < t_max && d2 < r * r
             })
             .map(|ph| ph.p.to_array())
             .collect();
