@@ -172,6 +172,27 @@ pub fn half_space_reflectance(h: &HFunction, mu: f64) -> f64 {
     h.omega() * h.eval(1.0) * h.eval(mu) / (4.0 * std::f64::consts::PI * (1.0 + mu))
 }
 
+/// The source function at the surface of the half-space, per unit irradiance: the in-scattered
+/// radiance σ_s ∫ f_p L dω / σ_t just inside the surface, which is the limit of
+/// [`half_space_reflectance`] at grazing exit, ω H(1) H(0) / (4π) with H(0) = 1 (the emergent
+/// radiance is ∫ S(τ) e^{−τ/μ} dτ/μ, which tends to S(0) as μ → 0). It sets the boundary bias of
+/// kernel estimates near the surface.
+pub fn half_space_surface_source(h: &HFunction) -> f64 {
+    h.omega() * h.eval(1.0) / (4.0 * std::f64::consts::PI)
+}
+
+/// Singly scattered radiance reflected by a homogeneous slab of optical thickness τ (σ_t = 1 per
+/// unit optical depth, albedo ω) under collimated light at normal incidence, towards a direction
+/// with cosine μ to the surface normal, per unit irradiance; `phase` is the phase function's value
+/// for the scattering angle between the light's direction and the exit direction (cos θ = −μ).
+/// Light at depth z is E e^{−z}; it scatters into the exit direction with ω σ_t f_p and leaves
+/// with e^{−z/μ}, over a path length dz/μ:
+///
+///   L₁(μ)/E = ∫₀^τ ω f_p e^{−z(1 + 1/μ)} dz/μ = ω f_p (1 − e^{−τ(1 + 1/μ)}) / (1 + μ).
+pub fn slab_single_scattering(omega: f64, tau: f64, mu: f64, phase: f64) -> f64 {
+    omega * phase * (1.0 - (-tau * (1.0 + 1.0 / mu)).exp()) / (1.0 + mu)
+}
+
 /// Fraction of the normally incident power the half-space reflects: 1 − √(1 − ω) H(1).
 pub fn half_space_albedo(h: &HFunction) -> f64 {
     1.0 - (1.0 - h.omega()).sqrt() * h.eval(1.0)
@@ -292,6 +313,34 @@ mod tests {
         assert!(HFunction::new(0.0).is_none() && HFunction::new(1.5).is_none());
         assert!((h.eval(1.0) - 2.9078).abs() < 2e-3, "H(1) = {}", h.eval(1.0));
         assert!((h.moment(1) - 2.0 / 3f64.sqrt()).abs() < 2e-3, "α₁ = {}", h.moment(1));
+    }
+
+    #[test]
+    fn single_scattering_is_the_first_order_of_the_half_space() {
+        // For a thick slab and isotropic scattering, L₁ is the half-space reflectance with H = 1:
+        // their ratio is H(1) H(μ) = 1 + O(ω).
+        for mu in [0.3, 0.6, 1.0] {
+            let phase = 1.0 / (4.0 * std::f64::consts::PI);
+            let thick = slab_single_scattering(1e-3, 50.0, mu, phase);
+            let h = HFunction::new(1e-3).unwrap();
+            let full = half_space_reflectance(&h, mu);
+            assert!((full / thick - 1.0).abs() < 2e-3, "μ {mu}: {full} vs {thick}");
+            // A midpoint-rule integral of the depth integrand.
+            let (tau, n) = (0.7, 200_000);
+            let dz = tau / n as f64;
+            let sum: f64 = (0..n)
+                .map(|i| {
+                    let z = (i as f64 + 0.5) * dz;
+                    0.8 * phase * (-z * (1.0 + 1.0 / mu)).exp() * dz / mu
+                })
+                .sum();
+            let closed = slab_single_scattering(0.8, tau, mu, phase);
+            assert!((sum / closed - 1.0).abs() < 1e-8, "μ {mu}: {sum} vs {closed}");
+        }
+        // The surface source is the grazing limit of the reflectance.
+        let h = HFunction::new(0.8).unwrap();
+        let grazing = half_space_reflectance(&h, 1e-9);
+        assert!((half_space_surface_source(&h) / grazing - 1.0).abs() < 1e-6);
     }
 
     #[test]

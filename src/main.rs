@@ -53,6 +53,9 @@ struct ValidateArgs {
     /// Worker threads (default: all cores).
     #[arg(short = 'j', long, value_name = "T")]
     threads: Option<usize>,
+    /// Run only the cases whose name contains this text (e.g. "half-space").
+    #[arg(long, value_name = "TEXT")]
+    case: Option<String>,
 }
 
 /// Options that override the scene file's [render] table.
@@ -79,7 +82,7 @@ struct Overrides {
     /// Density-estimation kernel: constant, epanechnikov or biweight.
     #[arg(short = 'k', long, value_name = "KERNEL", value_parser = parse_kernel)]
     kernel: Option<Kernel>,
-    /// Maximum scattering events on light and eye paths.
+    /// Maximum scattering events on light and eye paths (pass-through interfaces are not events).
     #[arg(long, value_name = "D")]
     max_depth: Option<u32>,
     /// Random seed; the same scene, seed and iteration count give the same image.
@@ -608,12 +611,15 @@ fn validate(args: ValidateArgs) -> Result<()> {
     }
     let start = Instant::now();
     let rows = pool.install(|| {
-        validate::run(&args.media, effort, |done, total| {
+        validate::run(&args.media, effort, args.case.as_deref(), |done, total| {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
         })
     })?;
     bar.finish_and_clear();
+    if rows.is_empty() {
+        bail!("--case {:?}: no case name contains it", args.case.unwrap_or_default());
+    }
     let table = validate::markdown(&rows);
     println!("{table}");
     println!(

@@ -15,7 +15,7 @@
 
 use crate::analytic::{
     HFunction, PointSourceMedium, Scattering, beer_lambert, half_space_reflectance,
-    optical_depth_linear,
+    half_space_surface_source, optical_depth_linear, slab_single_scattering,
 };
 use crate::error::Result;
 use crate::progress::Silent;
@@ -90,14 +90,61 @@ struct Case {
     medium: &'static str,
     toml: String,
     reference: f64,
-    /// Bias bound of the kernel estimates as a function of the volume radius.
-    bias: Box<dyn Fn(f64) -> f64>,
+    /// Bias bound of a kernel estimate as a function of the volume radius.
+    bias: Box<dyn Fn(VolumeEstimate, f64) -> f64>,
     /// Scattering events allowed on a path (1: single scattering only).
     max_depth: u32,
     /// Bias of the set-up itself (e.g. a finite block standing in for a half-space), for every
     /// method.
     setup_bias: f64,
-    volume_radius: f64,
+    /// Volume radius of the beam and of the point estimate.
+    volume_radius: [f64; 2],
+    /// Light paths per iteration, as a multiple of the effort's.
+    photons_scale: u64,
+}
+
+impl Case {
+    fn radius(&self, estimate: VolumeEstimate) -> f64 {
+        match estimate {
+            VolumeEstimate::Beam => self.volume_radius[0],
+            VolumeEstimate::Point => self.volume_radius[1],
+        }
+    }
+}
+
+/// A view of a block of homogeneous medium (σ_t 1, albedo ω, Henyey–Greenstein g) with its top face at
+/// y = 0, under collimated light falling straight down, by an orthographic camera looking at the
+/// origin from `distance` along the direction at cosine μ to the normal (in the xy-plane, from +x).
+struct HalfSpaceView {
+    omega: f64,
+    mu: f64,
+    distance: f64,
+    /// Extent along x of the viewed patch of the surface (its z extent is `patch` · μ).
+    patch: f64,
+    /// The block: x range, depth, z range.
+    block: ([f64; 2], f64, [f64; 2]),
+    irradiance: f64,
+    /// Pixels along each side of the (square) image.
+    resolution: u32,
+    /// Henyey–Greenstein mean cosine.
+    g: f64,
+}
+
+fn half_space_toml(v: HalfSpaceView) -> String {
+    let HalfSpaceView { omega, mu, distance, patch, block, irradiance, resolution, g } = v;
+    let sin = (1.0 - mu * mu).sqrt();
+    let ([x0, x1], depth, [z0, z1]) = block;
+    format!(
+        "[camera]\ntype = \"orthographic\"\nposition = [{}, {}, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, -1]\nheight = {}\nresolution = [{resolution}, {resolution}]\n\n[media.slab]\ntype = \"homogeneous\"\nalbedo = {omega}\nsigma_t = 1\ng = {g}\n\n[materials.air]\ntype = \"interface\"\n\n[[shapes]]\ntype = \"box\"\nsize = [{}, {depth}, {}]\nmaterial = \"air\"\ninterior = \"slab\"\ntransform = {{ translate = [{}, {}, {}] }}\n\n[[lights]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = {irradiance}\n",
+        distance * sin,
+        distance * mu,
+        patch * mu,
+        x1 - x0,
+        z1 - z0,
+        (x0 + x1) / 2.0,
+        -depth / 2.0,
+        (z0 + z1) / 2.0,
+    )
 }
 
 fn toml_path(p: &Path) -> String {
@@ -124,6 +171,41 @@ fn furnace_walls(le: f64) -> String {
     s
 }
 
+/// Boundary bias of a kernel estimate on an eye ray that enters a medium (σ_t = 1) through a flat
+/// surface at cosine μ, where the source function — the in-scattered radiance per unit optical
+/// length — is `source`.
+///
+/// Near the entry, part of the kernel lies outside the medium, where there are no photons: the
+/// beam estimate's disc (perpendicular to the ray, radius r) pokes out while the ray is within
+/// r sin θ of the surface, i.e. for t < r sin θ / μ; the point estimate's ball for collisions
+/// within r of it, t < r / μ. At a depth h·(that extent) the kernel mass outside is P(X > h) for X
+/// one coordinate of a point drawn from the kernel (in units of r), so the lost radiance is
+/// `source` × extent × ∫₀¹ P(X > h) dh = `source` × extent × E[X⁺]. E[X⁺] is largest for the
+/// constant kernel: 2/(3π) for the disc, 3/16 for the ball. A factor 1.1 covers the change of the
+/// source function within r of the surface (r ≤ 0.04 mean free paths).
+fn boundary_bias(estimate: VolumeEstimate, r: f64, mu: f64, source: f64) -> f64 {
+    let sin = (1.0 - mu * mu).sqrt();
+    let lost = match estimate {
+        VolumeEstimate::Beam => r * sin / mu * 2.0 / (3.0 * std::f64::consts::PI),
+        VolumeEstimate::Point => r / mu * 3.0 / 16.0,
+    };
+    1.1 * source * lost
+}
+
+/// Bias of the ray offsets at a pass-through surface (σ_t = 1) whose viewed points lie within
+/// `extent` of the origin: eye rays and photons both start their medium segment
+/// `ray_offset(p)` = 10⁻⁵ (1 + max |p_i|) inside, which skips at most that much optical depth on
+/// each of the two subpaths.
+fn offset_bias(reference: f64, extent: f64) -> f64 {
+    reference * 2.0 * f64::from(crate::math::RAY_EPSILON) * (1.0 + extent)
+}
+
+/// Smoothing bias of a kernel estimate away from boundaries: second order in the radius, with the
+/// source function's curvature bounded by that of e^{−τ/μ} along the eye ray.
+fn smoothing_bias(reference: f64, r: f64, mu: f64) -> f64 {
+    reference * (r / mu).powi(2)
+}
+
 fn cases(media_dir: &Path) -> Vec<Case> {
     let mut out = Vec::new();
     let fov = 20.0f64;
@@ -142,10 +224,11 @@ fn cases(media_dir: &Path) -> Vec<Case> {
             furnace_walls(1.0)
         ),
         reference: 1.0,
-        bias: Box::new(furnace_bias),
+        bias: Box::new(move |_, r| furnace_bias(r)),
         setup_bias: 0.0,
         max_depth: 10_000,
-        volume_radius: 0.02,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
     });
     // The same with a constant grid: box.vdb holds density 1 between its voxel centres, which a
     // scale of 2/(15/16) and a shift of −1 map onto the cube.
@@ -159,10 +242,11 @@ fn cases(media_dir: &Path) -> Vec<Case> {
             furnace_walls(1.0)
         ),
         reference: 1.0,
-        bias: Box::new(furnace_bias),
+        bias: Box::new(move |_, r| furnace_bias(r)),
         setup_bias: 0.0,
         max_depth: 10_000,
-        volume_radius: 0.02,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
     });
     // Beer–Lambert through a homogeneous absorbing slab, seen orthographically.
     let (thickness, sigma_a, le) = (1.2, 1.5, 2.0);
@@ -174,10 +258,11 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         ),
         reference: le * beer_lambert(sigma_a, thickness),
         // The ray offset at the slab's face shortens the path by ≤ 1e-5·(1 + |p|).
-        bias: Box::new(move |_| le * beer_lambert(sigma_a, thickness) * (sigma_a * 2e-5)),
+        bias: Box::new(move |_, _| le * beer_lambert(sigma_a, thickness) * (sigma_a * 2e-5)),
         setup_bias: 0.0,
         max_depth: 10_000,
-        volume_radius: 0.02,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
     });
     // Beer–Lambert through the gradient grid: density x + 1/64 along x (see media/README.md),
     // viewed along −x through x ∈ [0.1, 0.9], y, z ∈ [0.1, 0.4].
@@ -193,20 +278,21 @@ fn cases(media_dir: &Path) -> Vec<Case> {
             (a + b) / 2.0
         ),
         reference: le * (-tau).exp(),
-        bias: Box::new(move |_| le * (-tau).exp() * (sigma_t * scale * 2e-5)),
+        bias: Box::new(move |_, _| le * (-tau).exp() * (sigma_t * scale * 2e-5)),
         setup_bias: 0.0,
         max_depth: 10_000,
-        volume_radius: 0.02,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
     });
     // The semi-infinite half-space: a 32 × 16 × 32 block (σ_t 1, albedo ω, isotropic) under
     // collimated light at normal incidence. Uniform illumination makes the exitant radiance the
     // same at every point far from the block's edges, so an orthographic camera averages the
-    // central 16 × 16 patch, 8 mean free paths from every edge.
-    for (omega, mu) in [(0.8f64, 1.0f64), (0.8, 0.6)] {
+    // central 16 × 16μ patch, 8 mean free paths from every edge.
+    for (omega, mu) in [(0.8f64, 1.0f64), (0.8, 0.6), (0.8, 0.3)] {
         let Some(h) = HFunction::new(omega) else { continue };
         let irradiance = 3.0;
         let reference = irradiance * half_space_reflectance(&h, mu);
-        let sin = (1.0 - mu * mu).sqrt();
+        let source = irradiance * half_space_surface_source(&h);
         // Diffusion length of the medium: light entering beyond the block's edge is missing
         // from the patch by at most e^{−8/L_D}.
         let diffusion = 1.0 / (3.0 * (1.0 - omega)).sqrt();
@@ -214,23 +300,113 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         out.push(Case {
             name: format!("half-space ω {omega}, μ {mu}"),
             medium: "homogeneous",
-            toml: format!(
-                "[camera]\ntype = \"orthographic\"\nposition = [{}, {}, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, -1]\nheight = {}\nresolution = [8, 8]\n\n[media.slab]\ntype = \"homogeneous\"\nalbedo = {omega}\nsigma_t = 1\n\n[materials.air]\ntype = \"interface\"\n\n[[shapes]]\ntype = \"box\"\nsize = [32, 16, 32]\nmaterial = \"air\"\ninterior = \"slab\"\ntransform = {{ translate = [0, -8, 0] }}\n\n[[lights]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = {irradiance}\n",
-                20.0 * sin,
-                20.0 * mu,
-                16.0 * mu
-            ),
+            toml: half_space_toml(HalfSpaceView {
+                omega,
+                mu,
+                distance: 20.0,
+                patch: 16.0,
+                block: ([-16.0, 16.0], 16.0, [-16.0, 16.0]),
+                irradiance,
+                resolution: 8,
+                g: 0.0,
+            }),
             reference,
-            // Kernel estimates near the surface: collisions within r of it (probability
-            // ≤ r/μ on an eye ray) may lose their whole kernel and carry up to twice the mean
-            // weight; the beam's cylinder pokes out over r·tan θ at the entry. Plus the lateral
-            // truncation, which the path tracer shares.
-            bias: Box::new(move |r| reference * (2.0 * r / mu + r * sin / mu)),
-            setup_bias: lateral,
+            // Kernel estimates lose the part of their kernel that lies outside the surface, where
+            // the source function is `source`, plus a smoothing term; and the lateral truncation,
+            // which the path tracer shares.
+            bias: Box::new(move |estimate, r| {
+                boundary_bias(estimate, r, mu, source) + smoothing_bias(reference, r, mu)
+            }),
+            setup_bias: lateral + offset_bias(reference, 8.0),
             max_depth: 10_000,
-            volume_radius: 0.04,
+            volume_radius: [0.04, 0.04],
+            photons_scale: 1,
         });
     }
+    // The half-space at a grazing view (μ 0.3) in single scattering (paths of one scattering
+    // event, through the pass-through surface), with a small beam radius, from two camera
+    // distances along the same line of sight: nothing physical changes, only the rounding of the
+    // view direction. This checks the beam estimate's distance test, which once cancelled in f32
+    // (|v|² − t_p² with a view direction whose length differs from 1 by ~10⁻⁷ shifts d² by
+    // ~2·10⁻⁷ t_p², a few per cent of r² at this radius, with the sign of the rounding).
+    //
+    // Single scattering needs only the medium below the viewed patch and along the eye rays, so
+    // the block is small — x ∈ [−9.7, 1.8], depth 3, z ∈ [−0.6, 0.6] around a 3.3 × 1 patch — and
+    // the photons dense enough for a radius of 0.002, with ten times the light paths of the
+    // other cases. The 256 × 256 rays lie 0.004 apart, so their discs barely overlap: each finds
+    // photons of its own.
+    let (omega, mu, irradiance) = (0.8f64, 0.3f64, 3.0f64);
+    let phase = 1.0 / (4.0 * std::f64::consts::PI);
+    let reference = irradiance * slab_single_scattering(omega, f64::INFINITY, mu, phase);
+    // Eye rays leave the block through its −x side at depth 8·μ/sin θ (and its bottom at 3): the
+    // light beyond is missing, and the beam's disc pokes out there as at the top.
+    let exit = (8.0 / (1.0 - mu * mu).sqrt() * mu).min(3.0);
+    let missing = (-exit * (1.0 + 1.0 / mu)).exp();
+    let source = irradiance * omega * phase;
+    for distance in [20.0, 20.35] {
+        out.push(Case {
+            name: format!(
+                "half-space ω {omega}, μ {mu}, single scattering, r 0.002, camera at {distance}"
+            ),
+            medium: "homogeneous",
+            toml: half_space_toml(HalfSpaceView {
+                omega,
+                mu,
+                distance,
+                patch: 1.0 / mu,
+                block: ([-0.5 / mu - 8.0, 0.5 / mu + 0.1], 3.0, [-0.6, 0.6]),
+                irradiance,
+                resolution: 256,
+                g: 0.0,
+            }),
+            reference,
+            bias: Box::new(move |estimate, r| {
+                boundary_bias(estimate, r, mu, source * (1.0 + missing))
+                    + smoothing_bias(reference, r, mu)
+            }),
+            setup_bias: reference * missing + offset_bias(reference, 0.5 / mu),
+            max_depth: 1,
+            volume_radius: [0.002, 0.05],
+            photons_scale: 10,
+        });
+    }
+    // Single scattering in a slab seen from outside, paths limited to one scattering event: the
+    // slab's pass-through faces are not scattering events, so each method renders exactly the
+    // singly scattered light, L₁(μ) = E ω f_p (1 − e^{−τ(1 + 1/μ)}) / (1 + μ).
+    let (omega, tau, g, mu, irradiance) = (0.8f64, 1.0f64, 0.3f64, 0.5f64, 3.0f64);
+    let phase = {
+        // Henyey–Greenstein at cos θ = −μ (light travels down, leaves towards the camera).
+        let denom = 1.0 + g * g + 2.0 * g * mu;
+        (1.0 - g * g) / (4.0 * std::f64::consts::PI * denom * denom.sqrt())
+    };
+    let reference = irradiance * slab_single_scattering(omega, tau, mu, phase);
+    // The source function ω f_p E e^{−z} at the top face, and at the bottom face seen through the
+    // slab (the beam's disc pokes out of both).
+    let source = irradiance * omega * phase * (1.0 + (-tau * (1.0 + 1.0 / mu)).exp());
+    out.push(Case {
+        name: format!("slab single scattering (τ {tau}, ω {omega}, g {g}, μ {mu}), max_depth 1"),
+        medium: "homogeneous",
+        toml: half_space_toml(HalfSpaceView {
+            omega,
+            mu,
+            distance: 20.0,
+            patch: 16.0,
+            block: ([-16.0, 16.0], tau, [-16.0, 16.0]),
+            irradiance,
+            resolution: 32,
+            g,
+        }),
+        reference,
+        bias: Box::new(move |estimate, r| {
+            boundary_bias(estimate, r, mu, source) + smoothing_bias(reference, r, mu)
+        }),
+        // Single scattering needs no light from beyond the slab's edges: an eye ray stays within
+        // τ tan θ < 2 of the viewed patch, 8 from the edges. The ray offsets remain.
+        setup_bias: offset_bias(reference, 8.0),
+        max_depth: 1,
+        volume_radius: [0.02, 0.04],
+        photons_scale: 1,
+    });
     // An isotropic point source of power Φ in an infinite medium (σ_t 1, albedo ω, isotropic),
     // seen by a thin orthographic camera 1 mean free path away, looking perpendicular to the line
     // to the source; references from the Fourier-space Green's function (`PointSourceMedium`).
@@ -252,21 +428,24 @@ fn cases(media_dir: &Path) -> Vec<Case> {
             reference,
             // Kernel smoothing of a field whose points lie ≥ 1 mean free path from the source:
             // relative bias ≤ (r²/2)·(1/6)·|∇²L/L| with |∇²L/L| ≤ 2/d² + 2/d + 1 ≤ 5.
-            bias: Box::new(move |r| reference * 5.0 * r * r / 12.0),
+            bias: Box::new(move |_, r| reference * 5.0 * r * r / 12.0),
             // The camera's 0.01 × 0.01 footprint averages rays around the reference ray: a
             // second-order effect, below 10⁻⁴ of the radiance.
             setup_bias: reference * 1e-4,
             max_depth,
-            volume_radius: 0.05,
+            volume_radius: [0.05, 0.05],
+            photons_scale: 1,
         });
     }
     out
 }
 
-/// Runs every case with every method; `progress(done, total)` after each render.
+/// Runs every case whose name contains `filter` (every case if `None`) with every method;
+/// `progress(done, total)` after each render.
 pub fn run(
     media_dir: &Path,
     effort: Effort,
+    filter: Option<&str>,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Row>> {
     let methods: [(&'static str, Integrator, VolumeEstimate); 3] = [
@@ -276,7 +455,8 @@ pub fn run(
     ];
     let media_dir = &std::fs::canonicalize(media_dir)
         .map_err(|error| crate::Error::Io { path: media_dir.to_path_buf(), error })?;
-    let cases = cases(media_dir);
+    let mut cases = cases(media_dir);
+    cases.retain(|c| filter.is_none_or(|f| c.name.contains(f)));
     let total = cases.len() * methods.len() * effort.seeds as usize;
     let mut done = 0;
     let mut rows = Vec::new();
@@ -289,11 +469,11 @@ pub fn run(
                 let mut s = scene.settings.clone();
                 s.iterations = Some(effort.iterations);
                 s.time_limit = None;
-                s.photons = effort.photons;
+                s.photons = effort.photons * case.photons_scale;
                 s.max_depth = case.max_depth;
                 s.integrator = integrator;
                 s.volume_estimate = estimate;
-                s.volume_radius = crate::settings::Radius::Absolute(case.volume_radius);
+                s.volume_radius = crate::settings::Radius::Absolute(case.radius(estimate));
                 s.seed = 1000 + seed;
                 let image = crate::render(&scene, &s, &mut Silent, &AtomicBool::new(false))?;
                 xs.push(image.mean());
@@ -306,7 +486,7 @@ pub fn run(
             let bias = case.setup_bias
                 + match integrator {
                     Integrator::Path => 0.0,
-                    Integrator::PhotonMapping => (case.bias)(case.volume_radius),
+                    Integrator::PhotonMapping => (case.bias)(estimate, case.radius(estimate)),
                 };
             rows.push(Row {
                 case: case.name.clone(),
