@@ -27,26 +27,26 @@
 #![warn(missing_docs)]
 
 pub mod accel;
-pub mod analytic;
-pub mod chart;
-pub mod converge;
 pub mod dda;
 pub mod error;
 pub mod estimate;
 pub mod film;
 pub mod integrator;
+#[cfg(feature = "lab")]
+pub mod lab;
 pub mod math;
 pub mod medium;
 pub mod output;
 pub mod photon;
 pub mod progress;
+mod render;
 pub mod rng;
 pub mod scene;
 pub mod settings;
-pub mod validate;
 
 pub use error::{Error, Result};
-pub use integrator::ppm::render;
+pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};
+pub use render::render;
 pub use scene::Scene;
-pub use settings::RenderSettings;
+pub use settings::{RenderOptions, RenderSettings};

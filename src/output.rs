@@ -2,41 +2,28 @@
 //! in the header) and a tone-mapped sRGB PNG preview.
 
 use crate::error::{Error, Result};
-use crate::estimate::kernel::Kernel;
 use crate::film::Film;
+use crate::settings::{Integrator, RenderSettings};
 use std::path::{Path, PathBuf};
 
-/// How an image was made; written into the EXR header as `haze:*` attributes.
+/// How an image was made; written into the EXR header as `haze:*` attributes (the settings as
+/// `haze:render.KEY`, in the scene file's syntax).
 #[derive(Clone, Debug)]
 pub struct RenderInfo {
+    /// The settings it was rendered with.
+    pub settings: RenderSettings,
     /// Iterations averaged.
     pub iterations: u64,
     /// Light paths traced in total.
     pub light_paths: u64,
-    /// Initial surface radius.
+    /// Initial surface radius, in scene units.
     pub initial_radius: f64,
     /// Surface radius of the last iteration.
     pub radius: f64,
-    /// Radius reduction α.
-    pub alpha: f64,
-    /// Initial volume radius.
+    /// Initial volume radius, in scene units.
     pub volume_initial_radius: f64,
     /// Volume radius of the last iteration.
     pub volume_radius: f64,
-    /// Radius reduction α of the volume schedule.
-    pub volume_alpha: f64,
-    /// Dimension of the volume schedule.
-    pub volume_dimension: u32,
-    /// Volume estimator.
-    pub volume_estimate: crate::settings::VolumeEstimate,
-    /// Integrator.
-    pub integrator: crate::settings::Integrator,
-    /// Probabilistic or original progression.
-    pub progression: crate::settings::Progression,
-    /// Kernel.
-    pub kernel: Kernel,
-    /// Seed.
-    pub seed: u64,
     /// Seconds spent rendering.
     pub elapsed: f64,
     /// Scene file, if any.
@@ -118,19 +105,16 @@ impl Image {
     /// How a reference was made, as its `haze:reference` attribute says.
     pub fn reference_description(&self) -> String {
         let i = &self.info;
-        let method = match i.integrator {
-            crate::settings::Integrator::Path => "path tracer (unbiased)".to_string(),
-            crate::settings::Integrator::PhotonMapping => format!(
+        let method = match i.settings.integrator {
+            Integrator::Path => "path tracer (unbiased)".to_string(),
+            Integrator::PhotonMapping => format!(
                 "photon mapping ({} volume estimate, {} light paths, final radius {:.3e}, volume radius {:.3e}; consistent, not unbiased)",
-                i.volume_estimate.name(),
-                i.light_paths,
-                i.radius,
-                i.volume_radius
+                i.settings.volume_estimate, i.light_paths, i.radius, i.volume_radius
             ),
         };
         format!(
             "haze reference: {method}, {} iterations, seed {}, {:.0} s",
-            i.iterations, i.seed, i.elapsed
+            i.iterations, i.settings.seed, i.elapsed
         )
     }
 
@@ -149,21 +133,19 @@ impl Image {
         let mut put = |k: &str, v: AttributeValue| {
             attrs.other.insert(Text::from(format!("haze:{k}").as_str()), v);
         };
-        put("iterations", AttributeValue::Text(Text::from(info.iterations.to_string().as_str())));
-        put("lightPaths", AttributeValue::Text(Text::from(info.light_paths.to_string().as_str())));
+        let text =
+            |v: String| AttributeValue::Text(Text::new_or_none(v.as_str()).unwrap_or_default());
+        for (key, value) in info.settings.entries() {
+            put(&format!("render.{key}"), text(value));
+        }
+        put("iterations", text(info.iterations.to_string()));
+        put("lightPaths", text(info.light_paths.to_string()));
         put("radius", AttributeValue::F64(info.radius));
         put("initialRadius", AttributeValue::F64(info.initial_radius));
-        put("alpha", AttributeValue::F64(info.alpha));
         put("volumeRadius", AttributeValue::F64(info.volume_radius));
         put("volumeInitialRadius", AttributeValue::F64(info.volume_initial_radius));
-        put("volumeAlpha", AttributeValue::F64(info.volume_alpha));
-        put("volumeDimension", AttributeValue::I32(info.volume_dimension as i32));
-        put("volumeEstimate", AttributeValue::Text(Text::from(info.volume_estimate.name())));
-        put("kernel", AttributeValue::Text(Text::from(info.kernel.name())));
-        put("integrator", AttributeValue::Text(Text::from(info.integrator.name())));
-        put("progression", AttributeValue::Text(Text::from(info.progression.name())));
-        put("seed", AttributeValue::Text(Text::from(info.seed.to_string().as_str())));
         put("elapsedSeconds", AttributeValue::F64(info.elapsed));
+        put("nonfiniteSamples", text(info.nonfinite_samples.to_string()));
         let scene = info.scene.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
         // EXR text attributes are byte strings; keep the scene path if it is representable.
         if let Some(t) = Text::new_or_none(scene.as_str()) {
@@ -186,8 +168,8 @@ impl Image {
         // Only the path tracer's iterations are identically distributed, so only its per-pixel
         // sample variance estimates the noise of the mean; photon-mapping iterations drift as
         // the radius shrinks, and subtracting their spread would understate errors.
-        let variance = match (&self.variance, self.info.integrator) {
-            (Some(v), crate::settings::Integrator::Path) => v,
+        let variance = match (&self.variance, self.info.settings.integrator) {
+            (Some(v), Integrator::Path) => v,
             _ => return image.write().to_file(path).map_err(|e| out_err(path, e)),
         };
         let var_channels = SpecificChannels::rgb(|p: Vec2<usize>| {

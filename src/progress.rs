@@ -14,18 +14,8 @@ pub struct Status<'a> {
     pub photons_stored: u64,
     /// Volume photons stored by the last iteration.
     pub volume_photons_stored: u64,
-    /// Seconds the last iteration spent in the photon pass (tracing and building the maps).
-    pub photon_seconds: f64,
-    /// Of `photon_seconds`, the seconds spent building the photon maps from the stored photons.
-    pub map_seconds: f64,
-    /// Of `map_seconds`, the seconds spent building the volume photon map (beam map or point grid).
-    pub volume_map_seconds: f64,
-    /// With `RenderSettings::time_volume_estimate`, the seconds the last camera pass spent in
-    /// volume estimates, summed over threads and divided by the thread count (the share of the
-    /// camera pass's wall time, since every thread works through the pass).
-    pub volume_estimate_seconds: Option<f64>,
-    /// Seconds the last iteration spent in the camera pass.
-    pub camera_seconds: f64,
+    /// Seconds the last iteration spent in each step.
+    pub times: StepTimes,
     /// The accumulated film.
     pub film: &'a Film,
     /// The render so far: iterations, light paths, current radii, elapsed time, …
@@ -46,6 +36,29 @@ impl Status<'_> {
     /// The image so far, with its metadata (for snapshots).
     pub fn snapshot(&self) -> Image {
         Image::from_film(self.film, self.info.clone())
+    }
+}
+
+/// Seconds one iteration spent in each step (zero for steps the method does not have).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepTimes {
+    /// Tracing light paths (the photon pass without the map builds).
+    pub photon_trace: f64,
+    /// Building the surface photon map.
+    pub surface_map: f64,
+    /// Building the volume photon map (beam map or point grid).
+    pub volume_map: f64,
+    /// The camera pass: eye paths with their estimates (for the path tracer, the whole iteration).
+    pub camera: f64,
+    /// With the `profile` feature, the part of `camera` spent in volume estimates (thread time
+    /// divided by the thread count); `None` without it.
+    pub volume_estimates: Option<f64>,
+}
+
+impl StepTimes {
+    /// The whole iteration.
+    pub fn total(&self) -> f64 {
+        self.photon_trace + self.surface_map + self.volume_map + self.camera
     }
 }
 

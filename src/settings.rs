@@ -1,4 +1,18 @@
-//! Render settings: the `[render]` table of a scene file, overridable from the command line.
+//! Render settings, each defined once.
+//!
+//! Every setting is one entry of the [`render_settings!`] list below: its key, type, default,
+//! documentation, command-line flag and range check. From that list come
+//!
+//! - [`RenderSettings`], the settings a render uses (every field set);
+//! - [`RenderOptions`], the same keys all optional: the scene file's `[render]` table (serde, unknown
+//!   keys rejected), the command line's overrides (clap, with the `cli` feature) and the
+//!   `--series KEY=VALUE` lists of `haze converge` ([`RenderOptions::parse_assignments`]);
+//! - [`RenderSettings::apply`], which lays options over settings (scene defaults, then the file,
+//!   then the command line);
+//! - [`RenderSettings::validate`], which runs every range check and names the offending key;
+//! - [`RenderSettings::entries`], the key/value list written into every EXR header.
+//!
+//! Adding a setting is one entry here plus the code that uses it.
 //!
 //! ```toml
 //! [render]
@@ -21,18 +35,45 @@
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
 //! ```
 
-use crate::estimate::kernel::Kernel;
+pub use crate::estimate::kernel::Kernel;
+use serde::{Deserialize, Serialize};
 
-/// Gives an enum of named choices `name()` (as written in scene files and on the command line)
-/// and `FromStr`, whose error lists the choices.
-macro_rules! named_choices {
-    ($ty:ident, $what:literal, { $($variant:ident => $name:literal),+ $(,)? }) => {
+/// Defines a closed set of named choices: the enum, its serde and clap names (one name per
+/// variant), [`std::fmt::Display`], `FromStr` (whose error lists the choices) and `ALL`.
+macro_rules! choices {
+    (
+        $(#[doc = $doc:literal])*
+        $vis:vis enum $ty:ident ($what:literal) {
+            $( $(#[doc = $vdoc:literal])* $variant:ident = $name:literal, )+
+        }
+    ) => {
+        $(#[doc = $doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+        #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+        $vis enum $ty {
+            $(
+                $(#[doc = $vdoc])*
+                #[serde(rename = $name)]
+                #[cfg_attr(feature = "cli", value(name = $name))]
+                $variant,
+            )+
+        }
+
         impl $ty {
+            /// Every choice.
+            pub const ALL: &'static [$ty] = &[$($ty::$variant),+];
+
             /// Name as written in scene files and on the command line.
             pub fn name(self) -> &'static str {
                 match self {
                     $($ty::$variant => $name,)+
                 }
+            }
+        }
+
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.name())
             }
         }
 
@@ -48,7 +89,7 @@ macro_rules! named_choices {
         }
     };
 }
-pub(crate) use named_choices;
+pub(crate) use choices;
 
 /// `"a"`, `"a" or "b"`, `"a", "b" or "c"`, …
 pub(crate) fn one_of(names: &[&str]) -> String {
@@ -60,97 +101,39 @@ pub(crate) fn one_of(names: &[&str]) -> String {
     }
 }
 
-/// Initial photon-gathering radius.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Radius {
-    /// In scene units.
-    Absolute(f64),
-    /// As a fraction of the diagonal of the scene's bounding box.
-    Fraction(f64),
+choices! {
+    /// Which integrator renders.
+    pub enum Integrator ("integrator") {
+        /// Probabilistic progressive photon mapping (the default).
+        PhotonMapping = "ppm",
+        /// The unbiased volumetric path tracer with next-event estimation (reference and baseline).
+        Path = "path",
+    }
 }
 
-/// Which integrator renders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Integrator {
-    /// Probabilistic progressive photon mapping (the default).
-    PhotonMapping,
-    /// The unbiased volumetric path tracer with next-event estimation (reference and baseline).
-    Path,
+choices! {
+    /// How the radius shrinks from one iteration to the next.
+    pub enum Progression ("progression") {
+        /// Probabilistic PPM (Knaus & Zwicker 2011): one global radius per iteration from the
+        /// schedule; the image is the mean of the iterations.
+        Probabilistic = "probabilistic",
+        /// The original PPM (Hachisuka, Ogaki & Jensen 2008): every pixel keeps its own radius,
+        /// photon count and flux, updated after each photon pass. A comparison mode for the surface
+        /// estimate: scenes with media are refused.
+        Original = "original",
+    }
 }
 
-named_choices!(Integrator, "integrator", { PhotonMapping => "ppm", Path => "path" });
-
-/// How the radius shrinks from one iteration to the next.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Progression {
-    /// Probabilistic PPM (Knaus & Zwicker 2011): one global radius per iteration from the schedule,
-    /// the image is the mean of the iterations.
-    Probabilistic,
-    /// The original PPM (Hachisuka, Ogaki & Jensen 2008): every pixel keeps its own radius, photon
-    /// count and flux, updated after each photon pass. A comparison mode for the surface estimate:
-    /// scenes with media are refused.
-    Original,
-}
-
-named_choices!(Progression, "progression", {
-    Probabilistic => "probabilistic",
-    Original => "original",
-});
-
-/// How in-scattered radiance is estimated along eye paths in media.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum VolumeEstimate {
-    /// The beam radiance estimate (Jarosz et al. 2008): every volume photon whose kernel disc the
-    /// eye segment crosses, with a 2-D kernel.
-    Beam,
-    /// The point estimate (Jensen & Christensen 1998): a 3-D kernel density estimate at a
-    /// collision sampled along the eye segment.
-    Point,
-}
-
-named_choices!(VolumeEstimate, "volume estimate", { Beam => "beam", Point => "point" });
-
-/// How to render.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RenderSettings {
-    /// Stop after this many iterations (`None`: only the time limit stops the render).
-    pub iterations: Option<u64>,
-    /// Stop after this many seconds of rendering.
-    pub time_limit: Option<f64>,
-    /// Light paths emitted per iteration.
-    pub photons: u64,
-    /// Radius reduction parameter α ∈ (0, 1) of the surface schedule.
-    pub alpha: f64,
-    /// Initial surface radius.
-    pub radius: Radius,
-    /// Density-estimation kernel.
-    pub kernel: Kernel,
-    /// Maximum number of scattering events on a path: medium collisions and surface scatterings;
-    /// crossing a pass-through interface is not one.
-    pub max_depth: u32,
-    /// Seed of every random stream.
-    pub seed: u64,
-    /// In-scattering estimator in media.
-    pub volume_estimate: VolumeEstimate,
-    /// Radius reduction α of the volume schedule.
-    pub volume_alpha: f64,
-    /// Initial volume radius.
-    pub volume_radius: Radius,
-    /// Dimension d of the volume schedule r^d(i+1)/r^d(i) = (i+α)/(i+1): 3 (default) or 2.
-    pub volume_dimension: u32,
-    /// The integrator.
-    pub integrator: Integrator,
-    /// Probabilistic (global schedule) or original (per-pixel statistics) progression.
-    pub progression: Progression,
-    /// If set, volume photons in thinning cells (cubes holding ~4 photons on average) holding more
-    /// than this many photons are thinned by Russian roulette (kept with probability
-    /// budget/count, power divided by it), which bounds the cost of a beam query where photons are
-    /// dense without changing the expected image.
-    pub beam_cell_budget: Option<u32>,
-    /// Measure the time the camera pass spends in volume estimates and report it in
-    /// [`Status::volume_estimate_seconds`](crate::progress::Status) (for benchmarks: two clock
-    /// reads per estimate). Not a scene-file key.
-    pub time_volume_estimate: bool,
+choices! {
+    /// How in-scattered radiance is estimated along eye paths in media.
+    pub enum VolumeEstimate ("volume estimate") {
+        /// The beam radiance estimate (Jarosz et al. 2008): every volume photon whose kernel disc
+        /// the eye segment crosses, with a 2-D kernel.
+        Beam = "beam",
+        /// The point estimate (Jensen & Christensen 1998): a 3-D kernel density estimate at a
+        /// collision sampled along the eye segment.
+        Point = "point",
+    }
 }
 
 /// Most light paths per iteration: each stores photons of 48 bytes, several per path.
@@ -159,27 +142,263 @@ pub const MAX_PHOTONS: u64 = 50_000_000;
 /// Iterations rendered when neither an iteration count nor a time limit is given.
 pub const DEFAULT_ITERATIONS: u64 = 64;
 
-impl Default for RenderSettings {
-    fn default() -> Self {
-        Self {
-            iterations: Some(DEFAULT_ITERATIONS),
-            time_limit: None,
-            photons: 100_000,
-            alpha: 2.0 / 3.0,
-            radius: Radius::Fraction(0.01),
-            kernel: Kernel::Epanechnikov,
-            max_depth: 16,
-            seed: 0,
-            volume_estimate: VolumeEstimate::Beam,
-            volume_alpha: 0.5,
-            volume_radius: Radius::Fraction(0.005),
-            volume_dimension: 3,
-            integrator: Integrator::PhotonMapping,
-            progression: Progression::Probabilistic,
-            beam_cell_budget: None,
-            time_volume_estimate: false,
-        }
+/// Parses a duration such as `90`, `90s`, `1.5m`, `1h` or `500ms` into seconds.
+pub fn parse_duration(s: &str) -> Result<f64, String> {
+    let s = s.trim();
+    let (num, unit) = match s.find(|c: char| c.is_ascii_alphabetic()) {
+        Some(i) => (&s[..i], &s[i..]),
+        None => (s, "s"),
+    };
+    let scale = match unit {
+        "ms" => 1e-3,
+        "s" => 1.0,
+        "m" | "min" => 60.0,
+        "h" => 3600.0,
+        _ => return Err(format!("unknown unit `{unit}` (use ms, s, m or h)")),
+    };
+    let v: f64 = num.trim().parse().map_err(|_| format!("`{s}` is not a duration such as 60s"))?;
+    if !(v.is_finite() && v > 0.0) {
+        return Err(format!("`{s}` must be a positive duration"));
     }
+    Ok(v * scale)
+}
+
+// Range checks: each takes the value and says what is wrong with it.
+
+fn any<T>(_: &T) -> Result<(), String> {
+    Ok(())
+}
+
+fn at_least_one<T: Into<u64> + Copy>(v: &T) -> Result<(), String> {
+    if (*v).into() >= 1 { Ok(()) } else { Err("must be at least 1".into()) }
+}
+
+fn photon_count(v: &u64) -> Result<(), String> {
+    match *v {
+        0 => Err("must be at least 1".into()),
+        n if n > MAX_PHOTONS => {
+            Err(format!("at most {MAX_PHOTONS} per iteration (photon memory), got {n}"))
+        }
+        _ => Ok(()),
+    }
+}
+
+fn seconds(v: &f64) -> Result<(), String> {
+    if v.is_finite() && *v > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("must be a positive number of seconds, got {v}"))
+    }
+}
+
+fn open_unit(v: &f64) -> Result<(), String> {
+    if *v > 0.0 && *v < 1.0 {
+        Ok(())
+    } else {
+        Err(format!("must lie strictly between 0 and 1, got {v}"))
+    }
+}
+
+fn length(v: &f64) -> Result<(), String> {
+    if v.is_finite() && *v > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("must be a positive length, got {v}"))
+    }
+}
+
+fn fraction(v: &f64) -> Result<(), String> {
+    if v.is_finite() && *v > 0.0 && *v <= 1.0 {
+        Ok(())
+    } else {
+        Err(format!("must lie in (0, 1], got {v}"))
+    }
+}
+
+fn dimension(v: &u32) -> Result<(), String> {
+    if (1..=3).contains(v) { Ok(()) } else { Err(format!("must be 1, 2 or 3, got {v}")) }
+}
+
+/// The type of a settings field: the value, or an optional value.
+macro_rules! field_type {
+    ($t:ty) => { $t };
+    ($t:ty, optional) => { Option<$t> };
+}
+
+/// A value assigned to a settings field.
+macro_rules! field_value {
+    ($v:expr) => {
+        $v
+    };
+    ($v:expr, optional) => {
+        Some($v)
+    };
+}
+
+/// Runs a range check on a settings field (on the value, if an optional one is set).
+macro_rules! field_check {
+    ($v:expr, $check:expr) => {
+        $check(&$v)
+    };
+    ($v:expr, $check:expr, optional) => {
+        match &$v {
+            Some(v) => $check(v),
+            None => Ok(()),
+        }
+    };
+}
+
+/// The one list of render settings (see the module documentation). Each entry:
+///
+/// ```text
+/// /// doc (also the `--help` text)
+/// [clap arguments]
+/// key: type [, optional] = default, check;
+/// ```
+///
+/// An `optional` setting has type `Option<type>` in [`RenderSettings`] (absent: no limit or off).
+macro_rules! render_settings {
+    ($(
+        $(#[doc = $doc:literal])+
+        [$($cli:tt)*]
+        $key:ident : $ty:ty $(, $opt:ident)? = $default:expr, $check:expr;
+    )+) => {
+        /// How to render: every setting (see the module documentation for where each comes
+        /// from). Start from [`RenderSettings::default`] or a scene's `settings`.
+        #[derive(Clone, Debug, PartialEq, Serialize)]
+        pub struct RenderSettings {
+            $(
+                $(#[doc = $doc])+
+                pub $key: field_type!($ty $(, $opt)?),
+            )+
+        }
+
+        impl Default for RenderSettings {
+            fn default() -> Self {
+                Self { $($key: $default,)+ }
+            }
+        }
+
+        /// The render settings, each optional: the scene file's `[render]` table and the command
+        /// line's overrides. [`RenderSettings::apply`] lays them over settings.
+        #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        #[cfg_attr(feature = "cli", derive(clap::Args))]
+        pub struct RenderOptions {
+            $(
+                $(#[doc = $doc])+
+                #[serde(default)]
+                #[cfg_attr(feature = "cli", arg($($cli)*))]
+                pub $key: Option<$ty>,
+            )+
+        }
+
+        impl RenderOptions {
+            /// The keys, in the order of the list.
+            pub const KEYS: &'static [&'static str] = &[$(stringify!($key)),+];
+        }
+
+        impl RenderSettings {
+            /// Sets every setting that `options` gives (see [`Self::apply`] for the two pairs of
+            /// keys that interact).
+            fn apply_each(&mut self, options: &RenderOptions) {
+                $(
+                    if let Some(v) = &options.$key {
+                        self.$key = field_value!(v.clone() $(, $opt)?);
+                    }
+                )+
+            }
+
+            /// Runs every setting's own range check.
+            fn check_each(&self) -> Result<(), SettingError> {
+                $(
+                    field_check!(self.$key, $check $(, $opt)?)
+                        .map_err(|message| SettingError { key: stringify!($key), message })?;
+                )+
+                Ok(())
+            }
+        }
+    };
+}
+
+render_settings! {
+    /// Stop after this many iterations (photon-mapping passes) to average; given a time limit
+    /// alone (`time_limit`, `--time`), a later layer drops the count and renders until the time
+    /// is up.
+    [short = 'n', long, value_name = "N"]
+    iterations: u64, optional = Some(DEFAULT_ITERATIONS), at_least_one;
+
+    /// Time budget in seconds (on the command line a duration: 90, 90s, 1.5m, 1h); with an
+    /// iteration count, the render stops at whichever comes first.
+    [short = 't', long = "time", value_name = "DURATION", value_parser = parse_duration]
+    time_limit: f64, optional = None, seconds;
+
+    /// Light paths emitted per iteration.
+    [short = 'p', long, value_name = "N"]
+    photons: u64 = 100_000, photon_count;
+
+    /// Radius reduction α in (0, 1) of the surface schedule r²(i+1)/r²(i) = (i+α)/(i+1).
+    [short = 'a', long, value_name = "A"]
+    alpha: f64 = 2.0 / 3.0, open_unit;
+
+    /// Initial gathering radius in scene units; when set, it replaces `radius_fraction`.
+    [short = 'r', long, value_name = "R", conflicts_with = "radius_fraction"]
+    radius: f64, optional = None, length;
+
+    /// Initial gathering radius as a fraction of the scene's bounding-box diagonal.
+    [long, value_name = "F"]
+    radius_fraction: f64 = 0.01, fraction;
+
+    /// Density-estimation kernel.
+    [short = 'k', long, value_name = "KERNEL"]
+    kernel: Kernel = Kernel::Epanechnikov, any;
+
+    /// Most scattering events on a light or eye path: medium collisions and surface
+    /// scatterings; crossing a pass-through interface is not one.
+    [long, value_name = "D"]
+    max_depth: u32 = 16, at_least_one;
+
+    /// Seed of every random stream: the same scene, seed and iteration count give the same
+    /// image, whatever the number of threads.
+    [short = 's', long, value_name = "S"]
+    seed: u64 = 0, any;
+
+    /// In-scattering estimate along eye paths in media.
+    [long, value_name = "KIND"]
+    volume_estimate: VolumeEstimate = VolumeEstimate::Beam, any;
+
+    /// Radius reduction α of the volume schedule r^d(i+1)/r^d(i) = (i+α)/(i+1), for both
+    /// estimates.
+    [long, value_name = "A"]
+    volume_alpha: f64 = 0.5, open_unit;
+
+    /// Initial volume radius in scene units; when set, it replaces `volume_radius_fraction`.
+    [long, value_name = "R", conflicts_with = "volume_radius_fraction"]
+    volume_radius: f64, optional = None, length;
+
+    /// Initial volume radius as a fraction of the scene's bounding-box diagonal.
+    [long, value_name = "F"]
+    volume_radius_fraction: f64 = 0.005, fraction;
+
+    /// Dimension d of the volume radius schedule: 3 (what both estimates should use); 2 or 1 for
+    /// experiments.
+    [long, value_name = "D"]
+    volume_dimension: u32 = 3, dimension;
+
+    /// Integrator: progressive photon mapping, or the unbiased reference path tracer.
+    [long, value_name = "NAME"]
+    integrator: Integrator = Integrator::PhotonMapping, any;
+
+    /// Probabilistic PPM (one radius per iteration, image = mean of iterations), or the original
+    /// PPM's per-pixel statistics (a comparison mode for surfaces only).
+    [long, value_name = "KIND"]
+    progression: Progression = Progression::Probabilistic, any;
+
+    /// Thin volume photons in thinning cells (cubes holding ~4 photons on average) holding more
+    /// than this many: each is kept with probability budget/count and its power divided by it —
+    /// unbiased, and it bounds the cost of beam queries where photons crowd. Off if absent.
+    [long, value_name = "B"]
+    beam_cell_budget: u32, optional = None, at_least_one;
 }
 
 /// A rejected setting: the key (as in the scene file) and the reason.
@@ -191,109 +410,123 @@ pub struct SettingError {
     pub message: String,
 }
 
-fn err(key: &'static str, message: impl Into<String>) -> Result<(), SettingError> {
-    Err(SettingError { key, message: message.into() })
+impl std::fmt::Display for SettingError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.key, self.message)
+    }
 }
 
-fn check_radius(r: Radius, abs: &'static str, frac: &'static str) -> Result<(), SettingError> {
-    match r {
-        Radius::Absolute(r) if !(r.is_finite() && r > 0.0) => {
-            err(abs, format!("must be a positive length, got {r}"))
+impl RenderOptions {
+    /// Rejects a pair of keys that exclude each other (`radius` and `radius_fraction`, or
+    /// `volume_radius` and `volume_radius_fraction`) given together in one set of options.
+    pub fn check_pairs(&self) -> Result<(), SettingError> {
+        if self.radius.is_some() && self.radius_fraction.is_some() {
+            return Err(SettingError {
+                key: "radius",
+                message: "give `radius` or `radius_fraction`, not both".into(),
+            });
         }
-        Radius::Fraction(f) if !(f.is_finite() && f > 0.0 && f <= 1.0) => {
-            err(frac, format!("must lie in (0, 1], got {f}"))
+        if self.volume_radius.is_some() && self.volume_radius_fraction.is_some() {
+            return Err(SettingError {
+                key: "volume_radius",
+                message: "give `volume_radius` or `volume_radius_fraction`, not both".into(),
+            });
         }
-        _ => Ok(()),
+        Ok(())
+    }
+
+    /// Parses `KEY=VALUE` assignments separated by commas, with the keys and values of the
+    /// scene file's `[render]` table (strings may go unquoted), e.g. `alpha=0.5,kernel=constant`.
+    pub fn parse_assignments(list: &str) -> Result<RenderOptions, String> {
+        let mut text = String::new();
+        for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let (key, value) =
+                item.split_once('=').ok_or_else(|| format!("`{item}` is not KEY=VALUE"))?;
+            let (key, value) = (key.trim(), value.trim());
+            if !Self::KEYS.contains(&key) {
+                return Err(format!(
+                    "unknown render setting `{key}`; the settings are {}",
+                    Self::KEYS.join(", ")
+                ));
+            }
+            // A bare word is a string.
+            let quoted = value.parse::<f64>().is_err() && !value.starts_with('"');
+            let value = if quoted { format!("\"{value}\"") } else { value.to_string() };
+            text.push_str(&format!("{key} = {value}\n"));
+        }
+        let options: RenderOptions = toml::from_str(&text).map_err(|e| e.message().to_string())?;
+        options.check_pairs().map_err(|e| e.to_string())?;
+        Ok(options)
     }
 }
 
 impl RenderSettings {
-    /// Checks every setting; the error names the offending key.
+    /// Lays `options` over these settings: every setting the options give replaces this one's.
+    /// Two pairs of keys interact, so that a later layer (the command line over the scene file)
+    /// means what it says:
+    ///
+    /// - a time limit without an iteration count removes the iteration count (render until the
+    ///   time is up);
+    /// - a radius fraction without an absolute radius removes the absolute radius (likewise for
+    ///   the volume radius).
+    ///
+    /// The result is not validated: call [`Self::validate`].
+    pub fn apply(&mut self, options: &RenderOptions) {
+        self.apply_each(options);
+        if options.time_limit.is_some() && options.iterations.is_none() {
+            self.iterations = None;
+        }
+        if options.radius_fraction.is_some() && options.radius.is_none() {
+            self.radius = None;
+        }
+        if options.volume_radius_fraction.is_some() && options.volume_radius.is_none() {
+            self.volume_radius = None;
+        }
+    }
+
+    /// These settings with `options` applied (see [`Self::apply`]).
+    pub fn with(&self, options: &RenderOptions) -> Self {
+        let mut s = self.clone();
+        s.apply(options);
+        s
+    }
+
+    /// Checks every setting and the combinations; the error names the offending key.
     pub fn validate(&self) -> Result<(), SettingError> {
-        if self.iterations == Some(0) {
-            return err("iterations", "must be at least 1");
-        }
-        if let Some(t) = self.time_limit {
-            if !(t.is_finite() && t > 0.0) {
-                return err("time_limit", format!("must be a positive number of seconds, got {t}"));
-            }
-        }
+        self.check_each()?;
         if self.iterations.is_none() && self.time_limit.is_none() {
-            return err("iterations", "give an iteration count, a time limit, or both");
-        }
-        if self.photons == 0 {
-            return err("photons", "must be at least 1");
-        }
-        if self.photons > MAX_PHOTONS {
-            return err(
-                "photons",
-                format!(
-                    "at most {MAX_PHOTONS} per iteration (photon memory), got {}",
-                    self.photons
-                ),
-            );
-        }
-        if !(self.alpha > 0.0 && self.alpha < 1.0) {
-            return err("alpha", format!("must lie strictly between 0 and 1, got {}", self.alpha));
-        }
-        check_radius(self.radius, "radius", "radius_fraction")?;
-        check_radius(self.volume_radius, "volume_radius", "volume_radius_fraction")?;
-        if !(self.volume_alpha > 0.0 && self.volume_alpha < 1.0) {
-            return err(
-                "volume_alpha",
-                format!("must lie strictly between 0 and 1, got {}", self.volume_alpha),
-            );
-        }
-        if !(1..=3).contains(&self.volume_dimension) {
-            return err(
-                "volume_dimension",
-                format!("must be 1, 2 or 3, got {}", self.volume_dimension),
-            );
-        }
-        if self.max_depth == 0 {
-            return err("max_depth", "must be at least 1");
-        }
-        if self.beam_cell_budget == Some(0) {
-            return err("beam_cell_budget", "must be at least 1 photon per cell");
+            return Err(SettingError {
+                key: "iterations",
+                message: "give an iteration count, a time limit, or both".into(),
+            });
         }
         if self.progression == Progression::Original && self.integrator == Integrator::Path {
-            return err(
-                "progression",
-                "\"original\" applies to photon mapping, not the path tracer",
-            );
+            return Err(SettingError {
+                key: "progression",
+                message: "\"original\" applies to photon mapping, not the path tracer".into(),
+            });
         }
         Ok(())
     }
 
-    /// Sets the `[render]` key `key` from its textual value (as on the command line or in a
-    /// `haze converge --series` list); the error says what was expected. Keys and values are those
-    /// of the scene file. The result is not validated as a whole: call [`Self::validate`].
-    pub fn set(&mut self, key: &str, value: &str) -> Result<(), String> {
-        fn num<T: std::str::FromStr>(key: &str, v: &str) -> Result<T, String> {
-            v.trim().parse().map_err(|_| format!("{key}: `{v}` is not a valid number"))
-        }
-        let v = value.trim();
-        match key {
-            "iterations" => self.iterations = Some(num(key, v)?),
-            "time_limit" => self.time_limit = Some(num(key, v)?),
-            "photons" => self.photons = num(key, v)?,
-            "alpha" => self.alpha = num(key, v)?,
-            "radius" => self.radius = Radius::Absolute(num(key, v)?),
-            "radius_fraction" => self.radius = Radius::Fraction(num(key, v)?),
-            "kernel" => self.kernel = v.parse()?,
-            "max_depth" => self.max_depth = num(key, v)?,
-            "seed" => self.seed = num(key, v)?,
-            "volume_estimate" => self.volume_estimate = v.parse()?,
-            "volume_alpha" => self.volume_alpha = num(key, v)?,
-            "volume_radius" => self.volume_radius = Radius::Absolute(num(key, v)?),
-            "volume_radius_fraction" => self.volume_radius = Radius::Fraction(num(key, v)?),
-            "volume_dimension" => self.volume_dimension = num(key, v)?,
-            "integrator" => self.integrator = v.parse()?,
-            "progression" => self.progression = v.parse()?,
-            "beam_cell_budget" => self.beam_cell_budget = Some(num(key, v)?),
-            _ => return Err(format!("unknown render setting `{key}`")),
-        }
-        Ok(())
+    /// The initial surface radius for a scene whose bounding-box diagonal is `diagonal`.
+    pub fn initial_radius(&self, diagonal: f64) -> f64 {
+        self.radius.unwrap_or(self.radius_fraction * diagonal)
+    }
+
+    /// The initial volume radius for a scene whose bounding-box diagonal is `diagonal`.
+    pub fn initial_volume_radius(&self, diagonal: f64) -> f64 {
+        self.volume_radius.unwrap_or(self.volume_radius_fraction * diagonal)
+    }
+
+    /// Every setting as (key, value) in the scene file's syntax, absent ones left out: what the
+    /// EXR header records.
+    pub fn entries(&self) -> Vec<(String, String)> {
+        let table = toml::Table::try_from(self).unwrap_or_default();
+        RenderOptions::KEYS
+            .iter()
+            .filter_map(|k| table.get(*k).map(|v| (k.to_string(), v.to_string())))
+            .collect()
     }
 }
 
@@ -302,18 +535,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn named_choices_round_trip_and_list_the_choices() {
+    fn choices_round_trip_and_list_the_choices() {
         for k in Kernel::ALL {
-            assert_eq!(k.name().parse::<Kernel>(), Ok(k));
+            assert_eq!(k.name().parse::<Kernel>(), Ok(*k));
         }
-        for i in [Integrator::PhotonMapping, Integrator::Path] {
-            assert_eq!(i.name().parse::<Integrator>(), Ok(i));
-        }
-        for p in [Progression::Probabilistic, Progression::Original] {
-            assert_eq!(p.name().parse::<Progression>(), Ok(p));
-        }
-        for v in [VolumeEstimate::Beam, VolumeEstimate::Point] {
-            assert_eq!(v.name().parse::<VolumeEstimate>(), Ok(v));
+        for i in Integrator::ALL {
+            assert_eq!(i.name().parse::<Integrator>(), Ok(*i));
         }
         assert_eq!(
             "gauss".parse::<Kernel>(),
@@ -324,5 +551,43 @@ mod tests {
             "x".parse::<VolumeEstimate>(),
             Err("unknown volume estimate `x`; expected \"beam\" or \"point\"".to_string())
         );
+    }
+
+    #[test]
+    fn options_layer_over_settings() {
+        let file: RenderOptions =
+            toml::from_str("iterations = 10\nradius = 0.2\nkernel = \"constant\"").unwrap();
+        let mut s = RenderSettings::default();
+        s.apply(&file);
+        assert_eq!((s.iterations, s.radius, s.kernel), (Some(10), Some(0.2), Kernel::Constant));
+        // A time limit alone replaces the count; a fraction alone replaces the absolute radius.
+        let cli = RenderOptions::parse_assignments("time_limit=5,radius_fraction=0.1").unwrap();
+        s.apply(&cli);
+        assert_eq!((s.iterations, s.time_limit), (None, Some(5.0)));
+        assert_eq!((s.radius, s.radius_fraction), (None, 0.1));
+        assert_eq!(s.initial_radius(2.0), 0.2);
+        s.validate().unwrap();
+        // Unknown keys and values are refused, naming them.
+        assert!(RenderOptions::parse_assignments("alpah=1").unwrap_err().contains("alpah"));
+        assert!(toml::from_str::<RenderOptions>("alpah = 1").is_err());
+        assert!(RenderOptions::parse_assignments("kernel=gauss").unwrap_err().contains("gauss"));
+        assert!(RenderOptions::parse_assignments("radius=1,radius_fraction=0.1").is_err());
+        let bad = RenderSettings { alpha: 1.5, ..RenderSettings::default() };
+        assert_eq!(bad.validate().unwrap_err().key, "alpha");
+    }
+
+    #[test]
+    fn entries_record_every_set_key_in_file_syntax() {
+        let s = RenderSettings { beam_cell_budget: Some(8), ..RenderSettings::default() };
+        let e = s.entries();
+        let get = |k: &str| e.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
+        assert_eq!(get("kernel").as_deref(), Some("\"epanechnikov\""));
+        assert_eq!(get("integrator").as_deref(), Some("\"ppm\""));
+        assert_eq!(get("beam_cell_budget").as_deref(), Some("8"));
+        assert_eq!(get("time_limit"), None);
+        // What the header records reads back as the same settings.
+        let text: String = e.iter().map(|(k, v)| format!("{k} = {v}\n")).collect();
+        let back = RenderSettings::default().with(&toml::from_str(&text).unwrap());
+        assert_eq!(back, s);
     }
 }

@@ -6,7 +6,8 @@
 #   tests/compare-renders.sh BASE [SCENE.toml ...]
 #
 # Environment: ITERATIONS (default 3), PHOTONS (default 20000), SEED (default 7), THREADS (default
-# 2), WIDTH (default 96; the height keeps each scene's aspect ratio). Needs Python 3 with the
+# 2), WIDTH (default 96; the height keeps each scene's aspect ratio), EXTRA (more render flags for
+# both, e.g. "--integrator path" or "--volume-estimate point"). Needs Python 3 with the
 # OpenEXR and numpy packages (pip install OpenEXR numpy), found as $PYTHON (default python3).
 # Exit status 0 if every image is identical, 1 otherwise.
 set -euo pipefail
@@ -41,7 +42,8 @@ for scene in "${scenes[@]}"; do
     # The scene's resolution, scaled to the chosen width.
     read -r w h < <(sed -n 's/^resolution *= *\[ *\([0-9]*\) *, *\([0-9]*\) *\].*/\1 \2/p' "$scene" | head -1)
     height=$(( (width * h + w / 2) / w ))
-    args=(-n "$iterations" -p "$photons" -s "$seed" -j "$threads" --resolution "${width}x${height}" -q)
+    # shellcheck disable=SC2206
+    args=(-n "$iterations" -p "$photons" -s "$seed" -j "$threads" --resolution "${width}x${height}" -q ${EXTRA:-})
     "$old" render "$scene" "${args[@]}" -o "$work/$name-old.exr" 2>/dev/null
     "$new" render "$scene" "${args[@]}" -o "$work/$name-new.exr" 2>/dev/null
     if "$python" - "$work/$name-old.exr" "$work/$name-new.exr" "$name" <<'EOF'

@@ -11,21 +11,19 @@
 
 use std::f32::consts::PI;
 
-/// A density-estimation kernel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kernel {
-    /// Uniform over the ball.
-    Constant,
-    /// 1 − u² (the MSE-optimal kernel).
-    Epanechnikov,
-    /// (1 − u²)².
-    Biweight,
+crate::settings::choices! {
+    /// A density-estimation kernel.
+    pub enum Kernel ("kernel") {
+        /// Uniform over the ball.
+        Constant = "constant",
+        /// 1 − u² (the MSE-optimal kernel).
+        Epanechnikov = "epanechnikov",
+        /// (1 − u²)².
+        Biweight = "biweight",
+    }
 }
 
 impl Kernel {
-    /// Every kernel, for tests and charts.
-    pub const ALL: [Kernel; 3] = [Kernel::Constant, Kernel::Epanechnikov, Kernel::Biweight];
-
     /// Kernel value at squared normalised distance `u2` = (d / r)² for dimension `dim` (2 or 3),
     /// without the r^−d factor; zero outside the unit ball.
     #[inline]
@@ -50,9 +48,3 @@ impl Kernel {
         }
     }
 }
-
-crate::settings::named_choices!(Kernel, "kernel", {
-    Constant => "constant",
-    Epanechnikov => "epanechnikov",
-    Biweight => "biweight",
-});

@@ -20,7 +20,7 @@ use glam::Vec2;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 
 /// The photon maps of one iteration.
-pub struct Maps<'a> {
+pub(crate) struct Maps<'a> {
     /// Surface photons.
     pub surface: &'a PhotonGrid<Photon>,
     /// Volume photons for point queries (used by the point estimate).
@@ -31,7 +31,7 @@ pub struct Maps<'a> {
 
 /// Settings of one camera pass.
 #[derive(Clone, Copy, Debug)]
-pub struct CameraPass {
+pub(crate) struct CameraPass {
     /// Render seed.
     pub seed: u64,
     /// Iteration number (1-based).
@@ -45,31 +45,41 @@ pub struct CameraPass {
     pub volume: Gather,
     /// Beam or point estimate in media.
     pub estimate: VolumeEstimate,
-    /// Add the time spent in volume estimates to this thread's [`take_volume_time`] counter.
-    pub time_volume: bool,
 }
 
+#[cfg(feature = "profile")]
 thread_local! {
-    /// Nanoseconds this thread spent in volume estimates (when `CameraPass::time_volume`).
+    /// Nanoseconds this thread spent in volume estimates (with the `profile` feature).
     static VOLUME_NANOS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
 }
 
-/// Returns and resets the time the calling thread spent in volume estimates, in seconds.
-pub fn take_volume_time() -> f64 {
-    VOLUME_NANOS.with(|c| c.replace(0)) as f64 * 1e-9
+/// With the `profile` feature, returns and resets the time the worker threads spent in volume
+/// estimates since the last call, summed and divided by the thread count (the share of the
+/// camera pass's wall time, since every thread works through the pass); `None` without it.
+pub(crate) fn take_volume_times() -> Option<f64> {
+    #[cfg(feature = "profile")]
+    {
+        let threads = rayon::current_num_threads() as f64;
+        let take = || VOLUME_NANOS.with(|c| c.replace(0)) as f64 * 1e-9;
+        Some(rayon::broadcast(|_| take()).iter().sum::<f64>() / threads)
+    }
+    #[cfg(not(feature = "profile"))]
+    None
 }
 
-/// Runs `f`, adding its duration to this thread's volume-estimate time if `on`.
-#[inline]
-fn timed<T>(on: bool, f: impl FnOnce() -> T) -> T {
-    if !on {
-        return f();
+/// Runs `f`; with the `profile` feature, adds its duration to this thread's volume-estimate time.
+#[inline(always)]
+fn timed<T>(f: impl FnOnce() -> T) -> T {
+    #[cfg(feature = "profile")]
+    {
+        let start = std::time::Instant::now();
+        let out = f();
+        let ns = start.elapsed().as_nanos() as u64;
+        VOLUME_NANOS.with(|c| c.set(c.get() + ns));
+        out
     }
-    let start = std::time::Instant::now();
-    let out = f();
-    let ns = start.elapsed().as_nanos() as u64;
-    VOLUME_NANOS.with(|c| c.set(c.get() + ns));
-    out
+    #[cfg(not(feature = "profile"))]
+    f()
 }
 
 /// Radiance along one eye path for pixel (x, y).
@@ -112,10 +122,8 @@ pub(crate) fn trace_eye(
                     let tr = m.segment(o, d, t_max, &mut s);
                     let volume = &pass.volume;
                     let seg = EyeSegment { o, w: d, t_max };
-                    l += beta
-                        * timed(pass.time_volume, || {
-                            beam_radiance(maps.volume_beams, m, id, &seg, &tr, volume)
-                        });
+                    l +=
+                        beta * timed(|| beam_radiance(maps.volume_beams, m, id, &seg, &tr, volume));
                     beta *= tr.at(t_max);
                 }
                 VolumeEstimate::Point => {
@@ -124,10 +132,7 @@ pub(crate) fn trace_eye(
                     if flight.scattered {
                         let x = o + d * flight.t;
                         let points = maps.volume_points;
-                        l += beta
-                            * timed(pass.time_volume, || {
-                                point_radiance(points, m, id, x, d, &pass.volume)
-                            });
+                        l += beta * timed(|| point_radiance(points, m, id, x, d, &pass.volume));
                         break;
                     }
                 }
@@ -180,7 +185,7 @@ pub(crate) fn trace_eye(
 
 /// Renders one iteration image into `image` (row-major). Returns `false` if `stop` was raised
 /// before it finished. Non-finite samples are replaced by black and counted in `nonfinite`.
-pub fn render_pass(
+pub(crate) fn render_pass(
     scene: &Scene,
     maps: &Maps,
     pass: &CameraPass,

@@ -1,14 +1,113 @@
-//! Integrators: the progressive photon mapping loop (`ppm`) with its camera pass (`camera`), and
-//! the reference path tracer (`path`).
+//! Integrators: what one iteration of a render does. [`Method`] is the closed set the render loop
+//! ([`crate::render`]) drives:
+//!
+//! - probabilistic progressive photon mapping (`ppm.rs`): photon pass → photon maps → camera pass
+//!   (`camera.rs`), the film takes the mean of the iterations;
+//! - the original PPM's per-pixel statistics (`original.rs`), a comparison mode on the same photon
+//!   pass and maps, whose film holds the running estimate instead of a mean;
+//! - the unbiased reference path tracer (`path.rs`): one path per pixel.
 
-pub mod camera;
-pub mod original;
-pub mod path;
-pub mod ppm;
+pub(crate) mod camera;
+pub(crate) mod original;
+pub(crate) mod path;
+pub(crate) mod ppm;
 
+use crate::error::{Error, Result};
+use crate::film::Film;
 use crate::math::Rgb;
+use crate::progress::StepTimes;
+use crate::scene::Scene;
+use crate::settings::{Integrator, Progression, RenderSettings};
+use original::OriginalPpm;
+use path::PathTracer;
+use ppm::PhotonMapper;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// One rendering method and its state between iterations.
+pub(crate) enum Method {
+    /// Probabilistic progressive photon mapping.
+    PhotonMapping(PhotonMapper),
+    /// The original PPM (comparison mode).
+    Original(OriginalPpm),
+    /// The reference path tracer.
+    Path(PathTracer),
+}
+
+impl Method {
+    /// The method `settings` ask for, ready to render `scene`.
+    pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Result<Self> {
+        Ok(match (settings.integrator, settings.progression) {
+            (Integrator::Path, _) => Method::Path(PathTracer::new(scene, settings)),
+            (Integrator::PhotonMapping, Progression::Probabilistic) => {
+                Method::PhotonMapping(PhotonMapper::new(scene, settings))
+            }
+            (Integrator::PhotonMapping, Progression::Original) => {
+                if !scene.media.is_empty() {
+                    return Err(Error::Settings(
+                        "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")".into(),
+                    ));
+                }
+                Method::Original(OriginalPpm::new(scene, settings))
+            }
+        })
+    }
+
+    /// Renders iteration `i` (1-based) into `image`. Returns the time each step took, or `None`
+    /// if `stop` was raised before it finished (the image and the method's state are then
+    /// unusable for this iteration, which is discarded).
+    pub(crate) fn iterate(
+        &mut self,
+        scene: &Scene,
+        i: u64,
+        stop: &AtomicBool,
+        nonfinite: &AtomicU64,
+        image: &mut [Rgb],
+    ) -> Option<StepTimes> {
+        match self {
+            Method::PhotonMapping(m) => m.iterate(scene, i, stop, nonfinite, image),
+            Method::Original(m) => m.iterate(scene, i, stop, nonfinite, image),
+            Method::Path(m) => m.iterate(scene, i, stop, nonfinite, image),
+        }
+    }
+
+    /// Adds a finished iteration's image to the film.
+    pub(crate) fn accumulate(&self, film: &mut Film, image: &[Rgb]) {
+        match self {
+            // The original PPM's image is its running estimate, not a term of a mean.
+            Method::Original(_) => film.replace(image),
+            _ => film.add(image),
+        }
+    }
+
+    /// The surface and volume radii of iteration `i` (the original PPM reports its root-mean-square
+    /// pixel radius).
+    pub(crate) fn radii(&self, i: u64) -> (f64, f64) {
+        match self {
+            Method::PhotonMapping(m) => m.radii(i),
+            Method::Original(m) => m.radii(i),
+            Method::Path(m) => m.radii(i),
+        }
+    }
+
+    /// Light paths traced per iteration (none for the path tracer).
+    pub(crate) fn light_paths_per_iteration(&self) -> u64 {
+        match self {
+            Method::PhotonMapping(m) => m.paths(),
+            Method::Original(m) => m.paths(),
+            Method::Path(_) => 0,
+        }
+    }
+
+    /// Surface and volume photons stored by the last iteration.
+    pub(crate) fn photons_stored(&self) -> [u64; 2] {
+        match self {
+            Method::PhotonMapping(m) => m.stored(),
+            Method::Original(m) => m.stored(),
+            Method::Path(_) => [0, 0],
+        }
+    }
+}
 
 /// Fills `image` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over rows.
 /// Non-finite samples become black and are counted in `nonfinite`. Returns `false` if `stop` was

@@ -17,18 +17,97 @@
 //! defined for surface hit points only.
 
 use super::camera::{CameraPass, Maps, trace_eye};
+use super::ppm::{PhotonMapper, lap};
 use crate::estimate::surface::NORMAL_COS;
 use crate::math::Rgb;
 use crate::photon::Photon;
 use crate::photon::map::PhotonGrid;
+use crate::progress::StepTimes;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
+
+/// The original PPM: the photon mapper's photon pass and surface map, and per-pixel statistics.
+pub(crate) struct OriginalPpm {
+    mapper: PhotonMapper,
+    /// The statistics after the last finished iteration.
+    stats: OriginalState,
+    /// A copy the next iteration updates, so that an interrupted one leaves `stats` untouched.
+    next: OriginalState,
+    /// The root-mean-square pixel radius at the start of the last iteration (reported as its
+    /// radius).
+    radius: f64,
+}
+
+impl OriginalPpm {
+    pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Self {
+        let mapper = PhotonMapper::new(scene, settings);
+        let pixels = (scene.camera.resolution[0] * scene.camera.resolution[1]) as usize;
+        let r1 = mapper.initial_radius();
+        Self {
+            stats: OriginalState::new(pixels, r1, settings.alpha),
+            next: OriginalState::new(pixels, r1, settings.alpha),
+            radius: r1,
+            mapper,
+        }
+    }
+
+    /// Light paths per iteration.
+    pub(crate) fn paths(&self) -> u64 {
+        self.mapper.paths()
+    }
+
+    /// Surface and volume photons stored by the last photon pass.
+    pub(crate) fn stored(&self) -> [u64; 2] {
+        self.mapper.stored()
+    }
+
+    /// The radius the last iteration started from, and the volume schedule's (unused).
+    pub(crate) fn radii(&self, i: u64) -> (f64, f64) {
+        (self.radius, self.mapper.radii(i).1)
+    }
+
+    /// One iteration: photon pass, surface map for the largest pixel radius, gathering at every
+    /// pixel's hit point.
+    pub(crate) fn iterate(
+        &mut self,
+        scene: &Scene,
+        i: u64,
+        stop: &AtomicBool,
+        nonfinite: &AtomicU64,
+        image: &mut [Rgb],
+    ) -> Option<StepTimes> {
+        let mut times = StepTimes::default();
+        let r = self.stats.rms_radius();
+        let clock = Instant::now();
+        if !self.mapper.trace(scene, i, stop) {
+            return None;
+        }
+        times.photon_trace = lap(clock);
+        let clock = Instant::now();
+        self.mapper.build_surface_map(self.stats.max_radius());
+        times.surface_map = lap(clock);
+        let clock = Instant::now();
+        let pass = self.mapper.camera_pass(i, r, self.mapper.radii(i).1);
+        self.next.pixels.copy_from_slice(&self.stats.pixels);
+        let paths = i * self.mapper.paths();
+        let maps = self.mapper.maps();
+        if !gather_pass(scene, &maps, &pass, &mut self.next, paths, stop, nonfinite, image) {
+            return None;
+        }
+        std::mem::swap(&mut self.stats, &mut self.next);
+        self.radius = r;
+        times.camera = lap(clock);
+        Some(times)
+    }
+}
 
 /// One pixel's statistics.
 #[derive(Clone, Copy, Debug)]
-pub struct PixelStats {
+pub(crate) struct PixelStats {
     /// Squared gathering radius R².
     pub radius2: f64,
     /// Accumulated (α-weighted) photon count N.
@@ -40,7 +119,7 @@ pub struct PixelStats {
 }
 
 /// The per-pixel state of an original-PPM render.
-pub struct OriginalState {
+pub(crate) struct OriginalState {
     /// One entry per pixel, row-major.
     pub pixels: Vec<PixelStats>,
     /// Radius reduction α.
@@ -72,7 +151,7 @@ impl OriginalState {
 /// paths each) into `image`. Returns `false` if `stop` was raised before it finished; the state is
 /// then partly updated and must be discarded.
 #[allow(clippy::too_many_arguments)]
-pub fn gather_pass(
+pub(crate) fn gather_pass(
     scene: &Scene,
     maps: &Maps,
     pass: &CameraPass,

@@ -19,18 +19,76 @@
 //! known weakness photon mapping is for.
 
 use crate::accel::Hit;
+use crate::estimate::radius::radius;
 use crate::math::{Frame, Rgb, offset_origin, sample_cosine_hemisphere};
 use crate::photon::trace::LightSampler;
+use crate::progress::StepTimes;
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
 use crate::scene::light::Light;
 use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
+use crate::settings::RenderSettings;
 use glam::{Vec2, Vec3};
 use std::sync::atomic::{AtomicBool, AtomicU64};
+use std::time::Instant;
+
+/// The path tracer: its settings and the light sampler, kept between iterations.
+pub(crate) struct PathTracer {
+    seed: u64,
+    max_depth: u32,
+    /// The photon-mapping radii, reported but unused.
+    r1: f64,
+    alpha: f64,
+    r1_vol: f64,
+    volume_alpha: f64,
+    volume_dimension: u32,
+    lights: LightSampler,
+}
+
+impl PathTracer {
+    pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Self {
+        let diagonal = scene.diagonal() as f64;
+        Self {
+            seed: settings.seed,
+            max_depth: settings.max_depth,
+            r1: settings.initial_radius(diagonal),
+            alpha: settings.alpha,
+            r1_vol: settings.initial_volume_radius(diagonal),
+            volume_alpha: settings.volume_alpha,
+            volume_dimension: settings.volume_dimension,
+            lights: LightSampler::new(scene),
+        }
+    }
+
+    /// The schedule's radii at iteration `i` (the path tracer does not use them).
+    pub(crate) fn radii(&self, i: u64) -> (f64, f64) {
+        (
+            radius(i, self.r1, self.alpha, 2),
+            radius(i, self.r1_vol, self.volume_alpha, self.volume_dimension),
+        )
+    }
+
+    /// One iteration: one path per pixel.
+    pub(crate) fn iterate(
+        &mut self,
+        scene: &Scene,
+        i: u64,
+        stop: &AtomicBool,
+        nonfinite: &AtomicU64,
+        image: &mut [Rgb],
+    ) -> Option<StepTimes> {
+        let clock = Instant::now();
+        let pass = PathPass { seed: self.seed, iteration: i, max_depth: self.max_depth };
+        if !render_pass(scene, &self.lights, &pass, stop, nonfinite, image) {
+            return None;
+        }
+        Some(StepTimes { camera: super::ppm::lap(clock), ..StepTimes::default() })
+    }
+}
 
 /// Settings of one path-tracing pass.
 #[derive(Clone, Copy, Debug)]
-pub struct PathPass {
+pub(crate) struct PathPass {
     /// Render seed.
     pub seed: u64,
     /// Iteration number (1-based).
@@ -376,7 +434,7 @@ fn roulette(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
 }
 
 /// Renders one path-traced iteration image into `image`. Returns `false` if `stop` was raised.
-pub fn render_pass(
+fn render_pass(
     scene: &Scene,
     lights: &LightSampler,
     pass: &PathPass,

@@ -1,220 +1,192 @@
 //! Probabilistic progressive photon mapping (Knaus & Zwicker 2011): iteration i is an ordinary
-//! photon-mapping render with radius r_i from the schedule of [`crate::estimate::radius`]; the
-//! image is the mean of the iterations. Each iteration traces a fresh set of photons, rebuilds the
-//! photon map into the buffers of the previous one (memory stays constant) and renders one
-//! jittered eye path per pixel.
+//! photon-mapping render with radii r_i from the schedule of [`crate::estimate::radius`]; the
+//! image is the mean of the iterations. An iteration is three steps, each a function: the photon
+//! pass traces fresh light paths, the photon maps are rebuilt into the buffers of the previous
+//! iteration (memory stays constant), and the camera pass renders one jittered eye path per pixel.
 
 use super::camera::{CameraPass, Maps, render_pass};
-use super::original::{OriginalState, gather_pass};
-use super::path::{self, PathPass};
-use crate::error::{Error, Result};
+use crate::estimate::kernel::Kernel;
 use crate::estimate::radius::radius;
 use crate::estimate::surface::Gather;
-use crate::film::Film;
 use crate::math::Rgb;
-use crate::output::{Image, RenderInfo};
 use crate::photon::beam::{BeamMap, Thinning};
 use crate::photon::map::PhotonGrid;
 use crate::photon::trace::{LightSampler, PhotonPass, Photons, trace_photons};
-use crate::progress::{Progress, Status};
+use crate::photon::{Photon, VolumePhoton};
+use crate::progress::StepTimes;
 use crate::scene::Scene;
-use crate::settings::{Integrator, Progression, Radius, RenderSettings, VolumeEstimate};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use crate::settings::{RenderSettings, VolumeEstimate};
+use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
 
-/// A radius setting in `scene`'s units.
-pub fn resolve_radius(scene: &Scene, radius: Radius) -> f64 {
-    match radius {
-        Radius::Absolute(r) => r,
-        Radius::Fraction(f) => f * scene.diagonal() as f64,
+/// A photon mapper's settings and buffers, kept between iterations.
+pub(crate) struct PhotonMapper {
+    /// Render seed.
+    seed: u64,
+    /// Light paths per iteration.
+    paths: u64,
+    max_depth: u32,
+    kernel: Kernel,
+    estimate: VolumeEstimate,
+    beam_cell_budget: Option<u32>,
+    /// Surface schedule: initial radius and α (dimension 2).
+    r1: f64,
+    alpha: f64,
+    /// Volume schedule: initial radius, α and dimension.
+    r1_vol: f64,
+    volume_alpha: f64,
+    volume_dimension: u32,
+    lights: LightSampler,
+    photons: Photons,
+    surface_map: PhotonGrid<Photon>,
+    volume_points: PhotonGrid<VolumePhoton>,
+    volume_beams: BeamMap,
+}
+
+impl PhotonMapper {
+    pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Self {
+        let diagonal = scene.diagonal() as f64;
+        Self {
+            seed: settings.seed,
+            paths: settings.photons,
+            max_depth: settings.max_depth,
+            kernel: settings.kernel,
+            estimate: settings.volume_estimate,
+            beam_cell_budget: settings.beam_cell_budget,
+            r1: settings.initial_radius(diagonal),
+            alpha: settings.alpha,
+            r1_vol: settings.initial_volume_radius(diagonal),
+            volume_alpha: settings.volume_alpha,
+            volume_dimension: settings.volume_dimension,
+            lights: LightSampler::new(scene),
+            photons: Photons::default(),
+            surface_map: PhotonGrid::default(),
+            volume_points: PhotonGrid::default(),
+            volume_beams: BeamMap::new(),
+        }
+    }
+
+    /// Light paths per iteration.
+    pub(crate) fn paths(&self) -> u64 {
+        self.paths
+    }
+
+    /// The initial surface radius.
+    pub(crate) fn initial_radius(&self) -> f64 {
+        self.r1
+    }
+
+    /// Surface and volume photons stored by the last photon pass.
+    pub(crate) fn stored(&self) -> [u64; 2] {
+        [self.photons.surface.len() as u64, self.photons.volume.len() as u64]
+    }
+
+    /// The surface and volume radii of iteration `i`.
+    pub(crate) fn radii(&self, i: u64) -> (f64, f64) {
+        (
+            radius(i, self.r1, self.alpha, 2),
+            radius(i, self.r1_vol, self.volume_alpha, self.volume_dimension),
+        )
+    }
+
+    /// One iteration: photon pass, photon maps, camera pass.
+    pub(crate) fn iterate(
+        &mut self,
+        scene: &Scene,
+        i: u64,
+        stop: &AtomicBool,
+        nonfinite: &AtomicU64,
+        image: &mut [Rgb],
+    ) -> Option<StepTimes> {
+        let (r, r_vol) = self.radii(i);
+        let mut times = StepTimes::default();
+        let clock = Instant::now();
+        if !self.trace(scene, i, stop) {
+            return None;
+        }
+        times.photon_trace = lap(clock);
+        let clock = Instant::now();
+        self.build_surface_map(r);
+        times.surface_map = lap(clock);
+        let clock = Instant::now();
+        self.build_volume_map(scene, i, r_vol);
+        times.volume_map = lap(clock);
+        let clock = Instant::now();
+        let pass = self.camera_pass(i, r, r_vol);
+        if !render_pass(scene, &self.maps(), &pass, stop, nonfinite, image) {
+            return None;
+        }
+        times.camera = lap(clock);
+        times.volume_estimates = super::camera::take_volume_times();
+        Some(times)
+    }
+
+    /// Step 1, the photon pass of iteration `i`. Returns `false` if `stop` was raised before it
+    /// finished (the photons are then incomplete).
+    pub(crate) fn trace(&mut self, scene: &Scene, i: u64, stop: &AtomicBool) -> bool {
+        let pass = PhotonPass {
+            seed: self.seed,
+            iteration: i,
+            paths: self.paths,
+            max_depth: self.max_depth,
+        };
+        trace_photons(scene, &self.lights, &pass, stop, &mut self.photons)
+    }
+
+    /// Step 2a, the surface photon map for queries of radius up to `r`.
+    pub(crate) fn build_surface_map(&mut self, r: f64) {
+        self.surface_map.build(&self.photons.surface, r as f32);
+    }
+
+    /// Step 2b, the volume photon map the volume estimate queries with radius `r_vol`.
+    fn build_volume_map(&mut self, scene: &Scene, i: u64, r_vol: f64) {
+        match self.estimate {
+            VolumeEstimate::Beam => {
+                let thinning = self.beam_cell_budget.map(|budget| Thinning {
+                    budget,
+                    seed: self.seed,
+                    iteration: i,
+                });
+                self.volume_beams.build(
+                    &self.photons.volume,
+                    r_vol as f32,
+                    thinning,
+                    Some(&scene.camera),
+                    |p| p.beta * scene.media[p.medium as usize].sigma_s(p.p),
+                );
+            }
+            VolumeEstimate::Point => self.volume_points.build(&self.photons.volume, r_vol as f32),
+        }
+    }
+
+    /// The photon maps as the camera pass reads them.
+    pub(crate) fn maps(&self) -> Maps<'_> {
+        Maps {
+            surface: &self.surface_map,
+            volume_points: &self.volume_points,
+            volume_beams: &self.volume_beams,
+        }
+    }
+
+    /// Step 3's settings: the camera pass of iteration `i` with radii `r` and `r_vol`.
+    pub(crate) fn camera_pass(&self, i: u64, r: f64, r_vol: f64) -> CameraPass {
+        let gather = |radius: f64| Gather {
+            radius: radius as f32,
+            kernel: self.kernel,
+            inv_paths: 1.0 / self.paths as f32,
+        };
+        CameraPass {
+            seed: self.seed,
+            iteration: i,
+            max_depth: self.max_depth,
+            surface: gather(r),
+            volume: gather(r_vol),
+            estimate: self.estimate,
+        }
     }
 }
 
-/// Renders `scene` with `settings`, reporting to `progress` after every iteration, until the
-/// iteration count or time limit is reached or `stop` is raised. An iteration interrupted by
-/// `stop` is discarded; every finished one is in the returned image.
-pub fn render(
-    scene: &Scene,
-    settings: &RenderSettings,
-    progress: &mut dyn Progress,
-    stop: &AtomicBool,
-) -> Result<Image> {
-    settings.validate().map_err(|e| Error::Settings(format!("{}: {}", e.key, e.message)))?;
-    let original = settings.progression == Progression::Original;
-    if original && !scene.media.is_empty() {
-        return Err(Error::Settings(
-            "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")".into(),
-        ));
-    }
-    let start = Instant::now();
-    let [width, height] = scene.camera.resolution;
-    let r1 = resolve_radius(scene, settings.radius);
-    let r1_vol = resolve_radius(scene, settings.volume_radius);
-    let lights = LightSampler::new(scene);
-    let mut film = Film::new(width, height);
-    let mut photons = Photons::default();
-    let mut surface_map = PhotonGrid::default();
-    let mut volume_points = PhotonGrid::default();
-    let mut volume_beams = BeamMap::new();
-    let mut image = vec![Rgb::ZERO; (width * height) as usize];
-    let nonfinite = AtomicU64::new(0);
-    let mut light_paths = 0u64;
-    // The original progression's per-pixel statistics, and a spare copy that an iteration updates
-    // so that an interrupted one leaves the statistics untouched (empty otherwise).
-    let stats_len = if original { (width * height) as usize } else { 0 };
-    let mut pixel_stats = OriginalState::new(stats_len, r1, settings.alpha);
-    let mut next_stats = OriginalState::new(stats_len, r1, settings.alpha);
-    let mut last: Option<RenderInfo> = None;
-    let make_info = |iterations, light_paths, radius, volume_radius, elapsed| RenderInfo {
-        iterations,
-        light_paths,
-        initial_radius: r1,
-        radius,
-        alpha: settings.alpha,
-        volume_initial_radius: r1_vol,
-        volume_radius,
-        volume_alpha: settings.volume_alpha,
-        volume_dimension: settings.volume_dimension,
-        volume_estimate: settings.volume_estimate,
-        integrator: settings.integrator,
-        progression: settings.progression,
-        kernel: settings.kernel,
-        seed: settings.seed,
-        elapsed,
-        scene: scene.source.clone(),
-        nonfinite_samples: nonfinite.load(Ordering::Relaxed),
-    };
-    let mut iteration = 0u64;
-    loop {
-        if settings.iterations.is_some_and(|n| iteration >= n)
-            || settings.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t)
-            || stop.load(Ordering::Relaxed)
-        {
-            break;
-        }
-        let i = iteration + 1;
-        let r = if original { pixel_stats.rms_radius() } else { radius(i, r1, settings.alpha, 2) };
-        let r_vol = radius(i, r1_vol, settings.volume_alpha, settings.volume_dimension);
-        let t0 = Instant::now();
-        let t1;
-        let (mut t_traced, mut t_surface) = (t0, t0);
-        match settings.integrator {
-            Integrator::PhotonMapping => {
-                let pass = PhotonPass {
-                    seed: settings.seed,
-                    iteration: i,
-                    paths: settings.photons,
-                    max_depth: settings.max_depth,
-                };
-                if !trace_photons(scene, &lights, &pass, stop, &mut photons) {
-                    break;
-                }
-                t_traced = Instant::now();
-                let r_build = if original { pixel_stats.max_radius() } else { r };
-                surface_map.build(&photons.surface, r_build as f32);
-                t_surface = Instant::now();
-                match settings.volume_estimate {
-                    _ if original => {}
-                    VolumeEstimate::Beam => {
-                        let thinning = settings.beam_cell_budget.map(|budget| Thinning {
-                            budget,
-                            seed: settings.seed,
-                            iteration: i,
-                        });
-                        volume_beams.build(
-                            &photons.volume,
-                            r_vol as f32,
-                            thinning,
-                            Some(&scene.camera),
-                            |p| p.beta * scene.media[p.medium as usize].sigma_s(p.p),
-                        );
-                    }
-                    VolumeEstimate::Point => volume_points.build(&photons.volume, r_vol as f32),
-                }
-                t1 = Instant::now();
-                let camera = CameraPass {
-                    seed: settings.seed,
-                    iteration: i,
-                    max_depth: settings.max_depth,
-                    surface: Gather {
-                        radius: r as f32,
-                        kernel: settings.kernel,
-                        inv_paths: 1.0 / settings.photons as f32,
-                    },
-                    volume: Gather {
-                        radius: r_vol as f32,
-                        kernel: settings.kernel,
-                        inv_paths: 1.0 / settings.photons as f32,
-                    },
-                    estimate: settings.volume_estimate,
-                    time_volume: settings.time_volume_estimate,
-                };
-                let maps = Maps {
-                    surface: &surface_map,
-                    volume_points: &volume_points,
-                    volume_beams: &volume_beams,
-                };
-                if original {
-                    let paths = light_paths + settings.photons;
-                    next_stats.pixels.copy_from_slice(&pixel_stats.pixels);
-                    if !gather_pass(
-                        scene,
-                        &maps,
-                        &camera,
-                        &mut next_stats,
-                        paths,
-                        stop,
-                        &nonfinite,
-                        &mut image,
-                    ) {
-                        break;
-                    }
-                    std::mem::swap(&mut pixel_stats, &mut next_stats);
-                } else if !render_pass(scene, &maps, &camera, stop, &nonfinite, &mut image) {
-                    break;
-                }
-            }
-            Integrator::Path => {
-                t1 = t0;
-                let pass =
-                    PathPass { seed: settings.seed, iteration: i, max_depth: settings.max_depth };
-                if !path::render_pass(scene, &lights, &pass, stop, &nonfinite, &mut image) {
-                    break;
-                }
-            }
-        }
-        let t2 = Instant::now();
-        let volume_estimate_seconds = settings.time_volume_estimate.then(|| {
-            let threads = rayon::current_num_threads() as f64;
-            rayon::broadcast(|_| super::camera::take_volume_time()).iter().sum::<f64>() / threads
-        });
-        if original {
-            film.replace(&image);
-        } else {
-            film.add(&image);
-        }
-        iteration = i;
-        if settings.integrator == Integrator::PhotonMapping {
-            light_paths += settings.photons;
-        }
-        let info = make_info(iteration, light_paths, r, r_vol, start.elapsed().as_secs_f64());
-        progress.iteration(&Status {
-            target_iterations: settings.iterations,
-            time_limit: settings.time_limit,
-            photons_stored: photons.surface.len() as u64,
-            volume_photons_stored: photons.volume.len() as u64,
-            photon_seconds: (t1 - t0).as_secs_f64(),
-            map_seconds: (t1 - t_traced).as_secs_f64(),
-            volume_map_seconds: (t1 - t_surface).as_secs_f64(),
-            volume_estimate_seconds,
-            camera_seconds: (t2 - t1).as_secs_f64(),
-            film: &film,
-            info: &info,
-        });
-        last = Some(info);
-    }
-    let mut info = last.unwrap_or_else(|| make_info(0, 0, r1, r1_vol, 0.0));
-    info.elapsed = start.elapsed().as_secs_f64();
-    info.nonfinite_samples = nonfinite.load(Ordering::Relaxed);
-    Ok(Image::from_film(&film, info))
+/// Seconds since `clock`.
+pub(crate) fn lap(clock: Instant) -> f64 {
+    clock.elapsed().as_secs_f64()
 }

@@ -4,6 +4,7 @@
 //! Meaning and validation live in [`super::load`]; the user documentation is
 //! `docs/scene-format.md`.
 
+use crate::settings::RenderOptions;
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use toml::Spanned;
@@ -49,28 +50,6 @@ pub struct OrthographicDef {
 pub enum CameraDef {
     Perspective(PerspectiveDef),
     Orthographic(OrthographicDef),
-}
-
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RenderDef {
-    pub iterations: Option<u64>,
-    pub time_limit: Option<f64>,
-    pub photons: Option<u64>,
-    pub alpha: Option<f64>,
-    pub radius: Option<f64>,
-    pub radius_fraction: Option<f64>,
-    pub kernel: Option<String>,
-    pub max_depth: Option<u32>,
-    pub seed: Option<u64>,
-    pub volume_estimate: Option<String>,
-    pub volume_alpha: Option<f64>,
-    pub volume_radius: Option<f64>,
-    pub volume_radius_fraction: Option<f64>,
-    pub volume_dimension: Option<u32>,
-    pub integrator: Option<String>,
-    pub progression: Option<String>,
-    pub beam_cell_budget: Option<u32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -259,7 +238,7 @@ pub enum LightDef {
 #[derive(Debug)]
 pub struct SceneFile {
     pub camera: (CameraDef, std::ops::Range<usize>),
-    pub render: Option<(RenderDef, std::ops::Range<usize>)>,
+    pub render: Option<(RenderOptions, std::ops::Range<usize>)>,
     pub materials: Vec<(String, MaterialDef, std::ops::Range<usize>)>,
     pub media: Vec<(String, MediumDef, std::ops::Range<usize>)>,
     pub shapes: Vec<(ShapeDef, std::ops::Range<usize>)>,
@@ -280,12 +259,23 @@ fn error(key: &str, at: usize, message: impl Into<String>) -> FormatError {
     FormatError { key: key.to_string(), at: Some(at), message: message.into() }
 }
 
-/// Deserialises one value, keeping the line of whatever inside it is wrong.
+/// Deserialises one value, keeping the line of whatever inside it is wrong and, in a table, the
+/// key whose value it is.
 fn typed<T: DeserializeOwned>(v: &Value<'_>, key: &str) -> Result<T, FormatError> {
-    T::deserialize(ValueDeserializer::from(v.clone())).map_err(|e| FormatError {
-        key: key.to_string(),
-        at: e.span().map(|s| s.start).or(Some(v.span().start)),
-        message: e.message().trim().to_string(),
+    T::deserialize(ValueDeserializer::from(v.clone())).map_err(|e| {
+        let at = e.span().map(|s| s.start);
+        // The entry of the table whose value holds the error's position, if any.
+        let entry = at.and_then(|at| {
+            v.get_ref()
+                .as_table()?
+                .iter()
+                .find_map(|(k, val)| val.span().contains(&at).then(|| k.get_ref().to_string()))
+        });
+        FormatError {
+            key: entry.map_or_else(|| key.to_string(), |k| format!("{key}.{k}")),
+            at: at.or(Some(v.span().start)),
+            message: e.message().trim().to_string(),
+        }
     })
 }
 
@@ -358,7 +348,7 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         _ => CameraDef::Orthographic(typed(camera, "camera")?),
     };
     let render = match root.get("render") {
-        Some(r) => Some((typed::<RenderDef>(r, "render")?, r.span())),
+        Some(r) => Some((typed::<RenderOptions>(r, "render")?, r.span())),
         None => None,
     };
     let mut materials = Vec::new();
@@ -379,22 +369,6 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
                 }
             };
             materials.push((name, def, v.span()));
-        }
-    }
-    let mut media = Vec::new();
-    if let Some(m) = root.get("media") {
-        let table = m
-            .get_ref()
-            .as_table()
-            .ok_or_else(|| error("media", m.span().start, "expected a table of named media"))?;
-        for (name, v) in table.iter() {
-            let name = name.get_ref().to_string();
-            let key = format!("media.{name}");
-            let def = match kind(v, &key, &["homogeneous", "vdb"])? {
-                "homogeneous" => MediumDef::Homogeneous(typed(v, &key)?),
-                _ => MediumDef::Vdb(typed(v, &key)?),
-            };
-            media.push((name, def, v.span()));
         }
     }
     let mut media = Vec::new();

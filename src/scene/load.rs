@@ -4,8 +4,8 @@
 use super::camera::{Camera, Projection};
 use super::format::{
     self, BoxDef, CameraDef, ColorDef, HomogeneousDef, LightDef, MaterialDef, MediumDef, MeshDef,
-    ObjDef, OrthographicDef, PerspectiveDef, RectangleDef, RenderDef, ScaleDef, SceneFile,
-    ShapeDef, SphereDef, TransformDef, VdbDef,
+    ObjDef, OrthographicDef, PerspectiveDef, RectangleDef, ScaleDef, SceneFile, ShapeDef,
+    SphereDef, TransformDef, VdbDef,
 };
 use super::material::Material;
 use super::shape::{self, Mesh};
@@ -17,7 +17,7 @@ use crate::medium::grid::DensityGrid;
 use crate::medium::homogeneous::Homogeneous;
 use crate::medium::phase::HenyeyGreenstein;
 use crate::medium::vdb::VdbMedium;
-use crate::settings::{Radius, RenderSettings};
+use crate::settings::{RenderOptions, RenderSettings};
 use glam::Vec3;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -333,64 +333,13 @@ fn camera(def: &CameraDef, places: &Places) -> Result<Camera> {
     Ok(Camera::new(projection, position, look_at, up, resolution))
 }
 
-fn settings(def: Option<&RenderDef>, places: &Places) -> Result<RenderSettings> {
+/// The scene's settings: the defaults with the `[render]` table laid over them.
+fn settings(options: Option<&RenderOptions>, places: &Places) -> Result<RenderSettings> {
     let mut s = RenderSettings::default();
-    let Some(d) = def else { return Ok(s) };
-    match (d.iterations, d.time_limit) {
-        (None, Some(t)) => {
-            s.iterations = None;
-            s.time_limit = Some(t);
-        }
-        (i, t) => {
-            s.iterations = i.or(s.iterations);
-            s.time_limit = t;
-        }
+    if let Some(o) = options {
+        o.check_pairs().map_err(|e| places.error(format!("render.{}", e.key), e.message))?;
+        s.apply(o);
     }
-    s.photons = d.photons.unwrap_or(s.photons);
-    s.alpha = d.alpha.unwrap_or(s.alpha);
-    if let Some(r) = d.radius {
-        s.radius = Radius::Absolute(r);
-    }
-    if let Some(f) = d.radius_fraction {
-        s.radius = Radius::Fraction(f);
-    }
-    if d.radius.is_some() && d.radius_fraction.is_some() {
-        return Err(
-            places.error("render.radius".into(), "give `radius` or `radius_fraction`, not both")
-        );
-    }
-    if let Some(k) = &d.kernel {
-        s.kernel = k.parse().map_err(|m: String| places.error("render.kernel".into(), m))?;
-    }
-    s.max_depth = d.max_depth.unwrap_or(s.max_depth);
-    s.seed = d.seed.unwrap_or(s.seed);
-    if let Some(e) = &d.volume_estimate {
-        s.volume_estimate =
-            e.parse().map_err(|m: String| places.error("render.volume_estimate".into(), m))?;
-    }
-    s.volume_alpha = d.volume_alpha.unwrap_or(s.volume_alpha);
-    if d.volume_radius.is_some() && d.volume_radius_fraction.is_some() {
-        return Err(places.error(
-            "render.volume_radius".into(),
-            "give `volume_radius` or `volume_radius_fraction`, not both",
-        ));
-    }
-    if let Some(r) = d.volume_radius {
-        s.volume_radius = Radius::Absolute(r);
-    }
-    if let Some(f) = d.volume_radius_fraction {
-        s.volume_radius = Radius::Fraction(f);
-    }
-    s.volume_dimension = d.volume_dimension.unwrap_or(s.volume_dimension);
-    if let Some(i) = &d.integrator {
-        s.integrator =
-            i.parse().map_err(|m: String| places.error("render.integrator".into(), m))?;
-    }
-    if let Some(p) = &d.progression {
-        s.progression =
-            p.parse().map_err(|m: String| places.error("render.progression".into(), m))?;
-    }
-    s.beam_cell_budget = d.beam_cell_budget.or(s.beam_cell_budget);
     Ok(s)
 }
 

@@ -19,7 +19,7 @@ use haze::progress::Silent;
 use haze::scene::camera::{Camera, Projection};
 use haze::scene::material::Material;
 use haze::scene::{Geometry, LightDesc, SceneBuilder};
-use haze::settings::{Integrator, Radius, RenderSettings};
+use haze::settings::{Integrator, RenderSettings};
 use std::f64::consts::PI;
 use std::sync::atomic::AtomicBool;
 
@@ -57,7 +57,7 @@ fn closed_diffuse_sphere_with_central_point_light() {
                 let settings = RenderSettings {
                     iterations: Some(4),
                     photons: 20_000,
-                    radius: Radius::Absolute(0.08),
+                    radius: Some(0.08),
                     kernel,
                     max_depth: depth,
                     seed,

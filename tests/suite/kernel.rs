@@ -19,7 +19,7 @@ fn kernels_integrate_to_one() {
         assert!((three - 1.0).abs() < 1e-5, "{k:?} 3-D integrates to {three}");
         assert_eq!(k.eval(1.0, 2), 0.0);
         assert_eq!(k.eval(1.5, 3), 0.0);
-        assert_eq!(k.name().parse::<Kernel>(), Ok(k));
+        assert_eq!(k.name().parse::<Kernel>(), Ok(*k));
     }
     assert!("gaussian".parse::<Kernel>().is_err());
 }

@@ -12,7 +12,7 @@ use haze::progress::Silent;
 use haze::scene::camera::{Camera, Projection};
 use haze::scene::material::Material;
 use haze::scene::{Geometry, LightDesc, MediumInterface, SceneBuilder, shape};
-use haze::settings::{Integrator, Radius, RenderSettings, VolumeEstimate};
+use haze::settings::{Integrator, RenderSettings, VolumeEstimate};
 use haze::{Image, Scene};
 use std::sync::atomic::AtomicBool;
 
@@ -72,13 +72,13 @@ pub(crate) fn volume_settings(estimate: VolumeEstimate, r: f64, seed: u64) -> Re
     RenderSettings {
         iterations: Some(4),
         photons: 10_000,
-        radius: Radius::Absolute(0.05),
+        radius: Some(0.05),
         kernel: Kernel::Epanechnikov,
         max_depth: 100_000,
         seed,
         volume_estimate: estimate,
         volume_alpha: 0.5,
-        volume_radius: Radius::Absolute(r),
+        volume_radius: Some(r),
         volume_dimension: 3,
         ..RenderSettings::default()
     }

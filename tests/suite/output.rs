@@ -35,7 +35,18 @@ fn exr_round_trips_pixels_and_metadata() {
     };
     assert_eq!(text("haze:iterations"), "2");
     assert_eq!(text("haze:lightPaths"), "20000");
-    assert_eq!(text("haze:seed"), settings.seed.to_string());
+    // Every setting, in the scene file's syntax: the header reads back as the settings.
+    assert_eq!(text("haze:render.seed"), settings.seed.to_string());
+    assert_eq!(text("haze:render.kernel"), format!("\"{}\"", settings.kernel));
+    let table: String = haze::RenderOptions::KEYS
+        .iter()
+        .filter_map(|k| match attrs.get(&Text::from(format!("haze:render.{k}").as_str())) {
+            Some(AttributeValue::Text(t)) => Some(format!("{k} = {t}\n")),
+            _ => None,
+        })
+        .collect();
+    let read_back = haze::RenderSettings::default().with(&toml::from_str(&table).unwrap());
+    assert_eq!(read_back, settings);
     assert!(text("haze:scene").ends_with("cornell-box.toml"));
     match attrs.get(&Text::from("haze:radius")) {
         Some(AttributeValue::F64(r)) => assert_eq!(*r, image.info.radius),

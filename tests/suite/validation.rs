@@ -7,7 +7,9 @@ use std::path::Path;
 #[test]
 fn quick_validation_passes_every_case() {
     let media = Path::new(env!("CARGO_MANIFEST_DIR")).join("media");
-    let rows = haze::validate::run(&media, haze::validate::Effort::QUICK, None, |_, _| {}).unwrap();
+    let rows =
+        haze::lab::validate::run(&media, haze::lab::validate::Effort::QUICK, None, |_, _| {})
+            .unwrap();
     assert_eq!(rows.len(), 36);
     let failed: Vec<String> = rows
         .iter()
@@ -20,8 +22,8 @@ fn quick_validation_passes_every_case() {
         })
         .collect();
     assert!(failed.is_empty(), "{}", failed.join("\n"));
-    assert!(haze::validate::markdown(&rows).contains("| pass |"));
-    assert_eq!(haze::validate::csv(&rows).lines().count(), 37);
+    assert!(haze::lab::validate::markdown(&rows).contains("| pass |"));
+    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 37);
 
     // The cases behind two fixed defects are there (and passed above):
     // - a grazing view of the half-space with a small beam radius from two camera distances,

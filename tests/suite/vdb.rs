@@ -202,7 +202,7 @@ fn constant_density_grid_renders_like_the_homogeneous_medium() {
     use haze::scene::camera::{Camera, Projection};
     use haze::scene::material::Material;
     use haze::scene::{Geometry, LightDesc, MediumInterface, SceneBuilder, shape};
-    use haze::settings::{Radius, RenderSettings, VolumeEstimate};
+    use haze::settings::{RenderSettings, VolumeEstimate};
     use std::sync::atomic::AtomicBool;
 
     // Optically thin (τ ≈ 0.75 across the box), so the image depends strongly on the density.
@@ -257,8 +257,8 @@ fn constant_density_grid_renders_like_the_homogeneous_medium() {
                     let s = RenderSettings {
                         iterations: Some(3),
                         photons: 20_000,
-                        radius: Radius::Absolute(0.05),
-                        volume_radius: Radius::Absolute(0.05),
+                        radius: Some(0.05),
+                        volume_radius: Some(0.05),
                         volume_estimate: estimate,
                         max_depth: 32,
                         seed,

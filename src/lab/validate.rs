@@ -1,5 +1,5 @@
 //! `haze validate`: renders media with known answers through the normal scene loader and
-//! integrators and compares them with the references of [`crate::analytic`].
+//! integrators and compares them with the references of [`super::analytic`].
 //!
 //! Every case is generated here as scene-file text and loaded with [`Scene::from_toml`], then
 //! rendered K times with independent seeds. The table reports the mean ± standard error over the
@@ -13,7 +13,7 @@
 //! Green's function) — with both medium kinds where a grid can stand in (a constant or gradient
 //! VDB), both volume estimators, and the reference path tracer.
 
-use crate::analytic::{
+use super::analytic::{
     HFunction, PointSourceMedium, Scattering, beer_lambert, half_space_reflectance,
     half_space_surface_source, optical_depth_linear, slab_single_scattering,
 };
@@ -197,7 +197,7 @@ fn boundary_bias(estimate: VolumeEstimate, r: f64, mu: f64, source: f64) -> f64 
 /// `ray_offset(p)` = 10⁻⁵ (1 + max |p_i|) inside, which skips at most that much optical depth on
 /// each of the two subpaths.
 fn offset_bias(reference: f64, extent: f64) -> f64 {
-    reference * 2.0 * f64::from(crate::math::RAY_EPSILON) * (1.0 + extent)
+    reference * 2.0 * f64::from(crate::RAY_EPSILON) * (1.0 + extent)
 }
 
 /// Smoothing bias of a kernel estimate away from boundaries: second order in the radius, with the
@@ -473,7 +473,7 @@ pub fn run(
                 s.max_depth = case.max_depth;
                 s.integrator = integrator;
                 s.volume_estimate = estimate;
-                s.volume_radius = crate::settings::Radius::Absolute(case.radius(estimate));
+                s.volume_radius = Some(case.radius(estimate));
                 s.seed = 1000 + seed;
                 let image = crate::render(&scene, &s, &mut Silent, &AtomicBool::new(false))?;
                 xs.push(image.mean());
@@ -503,68 +503,13 @@ pub fn run(
     Ok(rows)
 }
 
-/// Two-sided critical value of Student's t with `dof` degrees of freedom (bisection on the CDF,
-/// computed from the regularised incomplete beta function by its continued fraction).
+/// Two-sided critical value of Student's t with `dof` degrees of freedom at `significance`.
 pub fn student_t_critical(dof: usize, significance: f64) -> f64 {
-    let nu = dof as f64;
-    // P(|T| > t) = I_{ν/(ν+t²)}(ν/2, 1/2).
-    let tail = |t: f64| incomplete_beta(nu / (nu + t * t), nu / 2.0, 0.5);
-    let (mut lo, mut hi) = (0.0, 1e3);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if tail(mid) > significance { lo = mid } else { hi = mid }
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    match StudentsT::new(0.0, 1.0, dof as f64) {
+        Ok(t) => t.inverse_cdf(1.0 - significance / 2.0),
+        Err(_) => f64::INFINITY,
     }
-    0.5 * (lo + hi)
-}
-
-fn incomplete_beta(x: f64, a: f64, b: f64) -> f64 {
-    use crate::estimate::radius::ln_gamma;
-    if x <= 0.0 {
-        return 0.0;
-    }
-    if x >= 1.0 {
-        return 1.0;
-    }
-    let front =
-        (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
-    if x < (a + 1.0) / (a + b + 2.0) {
-        front * beta_fraction(x, a, b) / a
-    } else {
-        1.0 - front * beta_fraction(1.0 - x, b, a) / b
-    }
-}
-
-/// Lentz's continued fraction for the incomplete beta function.
-fn beta_fraction(x: f64, a: f64, b: f64) -> f64 {
-    let tiny = 1e-300;
-    let (mut c, mut d) = (1.0, 1.0 - (a + b) * x / (a + 1.0));
-    if d.abs() < tiny {
-        d = tiny;
-    }
-    d = 1.0 / d;
-    let mut f = d;
-    for m in 1..300 {
-        let m = m as f64;
-        for num in [
-            m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m)),
-            -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0)),
-        ] {
-            d = 1.0 + num * d;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = 1.0 + num / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            f *= d * c;
-        }
-        if (d * c - 1.0).abs() < 1e-15 {
-            break;
-        }
-    }
-    f
 }
 
 /// The table as Markdown.
@@ -594,27 +539,36 @@ pub fn markdown(rows: &[Row]) -> String {
 
 /// The table as CSV.
 pub fn csv(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "case,medium,method,reference,mean,standard_error,z,relative_error,bias_bound,t_critical,pass\n",
-    );
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let _ = w.write_record([
+        "case",
+        "medium",
+        "method",
+        "reference",
+        "mean",
+        "standard_error",
+        "z",
+        "relative_error",
+        "bias_bound",
+        "t_critical",
+        "pass",
+    ]);
     for r in rows {
-        let _ = writeln!(
-            s,
-            "\"{}\",{},{},{},{},{},{},{},{},{},{}",
-            r.case,
-            r.medium,
-            r.method,
-            r.reference,
-            r.mean,
-            r.se,
+        let _ = w.write_record([
+            r.case.clone(),
+            r.medium.to_string(),
+            r.method.to_string(),
+            r.reference.to_string(),
+            r.mean.to_string(),
+            r.se.to_string(),
             r.z().map_or(String::new(), |z| z.to_string()),
-            r.relative_error(),
-            r.bias,
-            r.t_crit,
-            r.pass()
-        );
+            r.relative_error().to_string(),
+            r.bias.to_string(),
+            r.t_crit.to_string(),
+            r.pass().to_string(),
+        ]);
     }
-    s
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
 #[cfg(test)]

@@ -23,12 +23,14 @@
 //! time, which grows as N). A photon-mapping render is as slow as its slowest estimate; the path
 //! tracer's slope is −1/2.
 
-use crate::chart::{Chart, Line};
+use super::chart::{Chart, Line};
 use crate::error::{Error, Result};
 use crate::output::Image;
 use crate::progress::Status;
 use crate::scene::Scene;
-use crate::settings::{Integrator, Progression, RenderSettings, VolumeEstimate};
+use crate::settings::{
+    Integrator, Kernel, Progression, RenderOptions, RenderSettings, VolumeEstimate,
+};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -46,7 +48,8 @@ pub struct Reference {
     pub variance: Option<Vec<[f32; 3]>>,
     /// How it was made (the `haze:reference` attribute), if it says.
     pub description: Option<String>,
-    /// The integrator and seed that rendered it (`haze:integrator`, `haze:seed`), if it says.
+    /// The integrator and seed that rendered it (`haze:render.integrator` and `haze:render.seed`,
+    /// or `haze:integrator` and `haze:seed` in files of older versions), if it says.
     pub made_by: Option<(Integrator, u64)>,
 }
 
@@ -58,9 +61,12 @@ impl Reference {
             height: image.height,
             pixels: image.pixels.clone(),
             // As in `Image::write_reference`: only the path tracer's variance estimate is sound.
-            variance: image.variance.clone().filter(|_| image.info.integrator == Integrator::Path),
+            variance: image
+                .variance
+                .clone()
+                .filter(|_| image.info.settings.integrator == Integrator::Path),
             description: Some(image.reference_description()),
-            made_by: Some((image.info.integrator, image.info.seed)),
+            made_by: Some((image.info.settings.integrator, image.info.settings.seed)),
         }
     }
 
@@ -126,7 +132,15 @@ impl Reference {
             })
         };
         let description = text("haze:reference");
-        let made_by = match (text("haze:integrator"), text("haze:seed")) {
+        // Settings are recorded in the scene file's syntax (strings quoted); older files wrote
+        // bare names under other keys.
+        let setting = |new: &str, old: &str| {
+            text(new).map(|v| v.trim_matches('"').to_string()).or_else(|| text(old))
+        };
+        let made_by = match (
+            setting("haze:render.integrator", "haze:integrator"),
+            setting("haze:render.seed", "haze:seed"),
+        ) {
             (Some(i), Some(s)) => i.parse().ok().zip(s.parse().ok()),
             _ => None,
         };
@@ -314,9 +328,7 @@ pub fn run(
     }
     // Refuse a series that cannot render before any work is done.
     for s in series {
-        s.settings.validate().map_err(|e| {
-            Error::Settings(format!("series `{}`: {}: {}", s.label, e.key, e.message))
-        })?;
+        s.settings.validate().map_err(|e| Error::Settings(format!("series `{}`: {e}", s.label)))?;
         if s.settings.progression == Progression::Original && !scene.media.is_empty() {
             return Err(Error::Settings(format!(
                 "series `{}`: the original progression is for surfaces only; this scene has media",
@@ -537,24 +549,34 @@ pub fn chart(title: &str, summaries: &[Summary]) -> Chart {
 
 /// The samples as CSV: one row per run and checkpoint.
 pub fn csv(series: &[Series], samples: &[Sample]) -> String {
-    let mut out =
-        String::from("series,run,seed,iterations,light_paths,seconds,rmse,rel_rmse,rel_mse\n");
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let header = [
+        "series",
+        "run",
+        "seed",
+        "iterations",
+        "light_paths",
+        "seconds",
+        "rmse",
+        "rel_rmse",
+        "rel_mse",
+    ];
+    let _ = w.write_record(header);
     for s in samples {
         let se = &series[s.series];
-        out.push_str(&format!(
-            "{},{},{},{},{},{:.6},{:.6e},{:.6e},{:.6e}\n",
-            se.label.replace(',', ";"),
-            s.run,
-            se.settings.seed.wrapping_add(s.run as u64),
-            s.iterations,
-            s.light_paths,
-            s.seconds,
-            s.error.rmse(),
-            s.error.rel_rmse(),
-            s.error.rel_mse
-        ));
+        let _ = w.write_record([
+            se.label.clone(),
+            s.run.to_string(),
+            se.settings.seed.wrapping_add(s.run as u64).to_string(),
+            s.iterations.to_string(),
+            s.light_paths.to_string(),
+            format!("{:.6}", s.seconds),
+            format!("{:.6e}", s.error.rmse()),
+            format!("{:.6e}", s.error.rel_rmse()),
+            format!("{:.6e}", s.error.rel_mse),
+        ]);
     }
-    out
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
 /// A Markdown table of the summaries: slopes and seconds to 5% and 1% relative RMSE.
@@ -615,10 +637,9 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
             .iter()
             .map(|&a| with(format!("volume alpha {a:.2}"), &|s| s.volume_alpha = a))
             .collect(),
-        "kernel" => crate::estimate::kernel::Kernel::ALL
-            .iter()
-            .map(|&k| with(k.name().to_string(), &|s| s.kernel = k))
-            .collect(),
+        "kernel" => {
+            Kernel::ALL.iter().map(|&k| with(k.name().to_string(), &|s| s.kernel = k)).collect()
+        }
         "dimension" => [3, 2]
             .iter()
             .map(|&d| {
@@ -660,15 +681,12 @@ pub fn parse_series(spec: &str, base: &RenderSettings) -> std::result::Result<Se
     let (label, rest) = spec
         .split_once(':')
         .ok_or_else(|| format!("series `{spec}`: expected LABEL:KEY=VALUE[,KEY=VALUE…]"))?;
-    let mut settings = base.clone();
-    for kv in rest.split(',').filter(|t| !t.trim().is_empty()) {
-        let (k, v) = kv
-            .split_once('=')
-            .ok_or_else(|| format!("series `{label}`: `{kv}` is not KEY=VALUE"))?;
-        settings.set(k.trim(), v).map_err(|e| format!("series `{label}`: {e}"))?;
-    }
+    let options =
+        RenderOptions::parse_assignments(rest).map_err(|e| format!("series `{label}`: {e}"))?;
+    let mut settings = base.with(&options);
     settings.iterations = base.iterations;
-    settings.validate().map_err(|e| format!("series `{label}`: {}: {}", e.key, e.message))?;
+    settings.time_limit = base.time_limit;
+    settings.validate().map_err(|e| format!("series `{label}`: {e}"))?;
     Ok(Series { label: label.trim().to_string(), settings })
 }
 

@@ -1,11 +1,10 @@
-//! Log-log line charts, written as SVG and as PNG from the same layout, for convergence plots.
+//! Log-log line charts for convergence plots, written as SVG (the chart format: any browser or
+//! converter such as `rsvg-convert` turns it into a raster image).
 //!
-//! The chart is laid out once as a list of primitives (lines, markers, text) in pixel coordinates;
-//! [`Chart::svg`] writes them as SVG and [`Chart::png`] rasterises them with an 8×8 bitmap font
-//! (public-domain `font8x8` glyphs, drawn at twice their size), so the PNG needs no system fonts.
+//! The chart is laid out once as a list of primitives (lines, markers, text) in pixel coordinates,
+//! which [`Chart::svg`] writes as SVG elements.
 
 use crate::error::{Error, Result};
-use font8x8::UnicodeFonts;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -264,102 +263,10 @@ impl Chart {
         s
     }
 
-    /// The chart rasterised: width, height and 8-bit RGB pixels, row-major.
-    pub fn raster(&self) -> (u32, u32, Vec<u8>) {
-        let (w, h) = (WIDTH as usize, self.height() as usize);
-        let mut px = vec![255u8; w * h * 3];
-        let mut put = |x: i64, y: i64, c: [u8; 3]| {
-            if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
-                let i = (y as usize * w + x as usize) * 3;
-                px[i..i + 3].copy_from_slice(&c);
-            }
-        };
-        for p in self.layout() {
-            match p {
-                Prim::Line { a, b, color, width, dashed } => {
-                    let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
-                    let steps = (len * 4.0).ceil().max(1.0) as usize;
-                    let half = (width * 0.5).max(0.5);
-                    for k in 0..=steps {
-                        let t = k as f64 / steps as f64;
-                        if dashed && (t * len) % 13.0 > 8.0 {
-                            continue;
-                        }
-                        let (x, y) = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
-                        for yy in (y - half).round() as i64..(y + half).round() as i64 {
-                            for xx in (x - half).round() as i64..(x + half).round() as i64 {
-                                put(xx, yy, color);
-                            }
-                        }
-                    }
-                }
-                Prim::Marker { at, color } => {
-                    for dy in -3i64..=3 {
-                        for dx in -3i64..=3 {
-                            if dx * dx + dy * dy <= 10 {
-                                put(at.0.round() as i64 + dx, at.1.round() as i64 + dy, color);
-                            }
-                        }
-                    }
-                }
-                Prim::Text { at, text, anchor, vertical } => {
-                    let n = text.chars().count() as f64;
-                    let offset = match anchor {
-                        Anchor::Start => 0.0,
-                        Anchor::Middle => -n * TEXT / 2.0,
-                        Anchor::End => -n * TEXT,
-                    };
-                    for (i, ch) in text.chars().enumerate() {
-                        let glyph = font8x8::BASIC_FONTS
-                            .get(ch)
-                            .or_else(|| font8x8::GREEK_FONTS.get(ch))
-                            .or_else(|| font8x8::LATIN_FONTS.get(ch))
-                            .unwrap_or([0; 8]);
-                        let along = offset + i as f64 * TEXT;
-                        for (gy, row) in glyph.iter().enumerate() {
-                            for gx in 0..8 {
-                                if row >> gx & 1 == 0 {
-                                    continue;
-                                }
-                                for s in 0..4 {
-                                    let (u, v) =
-                                        (along + (2 * gx + s % 2) as f64, (2 * gy + s / 2) as f64);
-                                    let (x, y) = if vertical {
-                                        (at.0 + v - TEXT / 2.0, at.1 - u)
-                                    } else {
-                                        (at.0 + u, at.1 + v)
-                                    };
-                                    put(x.round() as i64, y.round() as i64, BLACK);
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        (w as u32, h as u32, px)
-    }
-
     /// Writes the SVG file.
     pub fn write_svg(&self, path: &Path) -> Result<()> {
         std::fs::write(path, self.svg())
             .map_err(|e| Error::Output { path: path.to_path_buf(), message: e.to_string() })
-    }
-
-    /// Writes the PNG file.
-    pub fn write_png(&self, path: &Path) -> Result<()> {
-        let err = |e: &dyn std::fmt::Display| Error::Output {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
-        let (w, h, data) = self.raster();
-        let file = std::fs::File::create(path).map_err(|e| err(&e))?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut writer = enc.write_header().map_err(|e| err(&e))?;
-        writer.write_image_data(&data).map_err(|e| err(&e))?;
-        writer.finish().map_err(|e| err(&e))
     }
 }
 
@@ -375,22 +282,22 @@ mod tests {
     }
 
     #[test]
-    fn raster_draws_series_in_colour() {
+    fn svg_draws_series_in_colour() {
         let chart = Chart {
             title: "t".into(),
             x_label: "x".into(),
             y_label: "y".into(),
             lines: vec![Line {
-                label: "a".into(),
+                label: "a <b>".into(),
                 points: vec![(1.0, 1.0), (10.0, 0.1), (100.0, 0.01)],
                 dashed: false,
                 color: 1,
             }],
         };
-        let (w, h, px) = chart.raster();
-        assert_eq!(px.len(), (w * h * 3) as usize);
-        let red = px.chunks(3).filter(|c| *c == PALETTE[1]).count();
-        assert!(red > 500, "series drawn: {red} pixels");
-        assert!(chart.svg().contains("<circle"));
+        let svg = chart.svg();
+        let red = format!("#{:02x}{:02x}{:02x}", PALETTE[1][0], PALETTE[1][1], PALETTE[1][2]);
+        assert_eq!(svg.matches("<circle").count(), 3, "one marker per point");
+        assert!(svg.matches(&format!("stroke=\"{red}\"")).count() >= 2, "segments in colour");
+        assert!(svg.contains("a &lt;b&gt;") && svg.ends_with("</svg>\n"));
     }
 }

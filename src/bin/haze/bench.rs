@@ -1,0 +1,129 @@
+//! `haze bench`: the time of each step of an iteration (photon pass, map builds, camera pass) on
+//! a scene, as a Markdown table. Built with the `profile` feature, it also reports the time spent
+//! in volume estimates (`cargo run --release --features profile -- bench SCENE`).
+
+use crate::{Overrides, thread_pool};
+use anyhow::{Result, bail};
+use clap::Args;
+use haze::progress::{Status, StepTimes};
+use haze::settings::Integrator;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+
+#[derive(Args)]
+#[command(allow_negative_numbers = true)]
+pub(crate) struct BenchArgs {
+    /// Scene file [default: scenes/cornell-box.toml].
+    scene: Option<PathBuf>,
+    #[command(flatten)]
+    overrides: Overrides,
+}
+
+/// Step times summed over iterations, and the photons stored.
+#[derive(Default)]
+struct Totals {
+    times: StepTimes,
+    volume_estimates: f64,
+    stored: u64,
+    stored_volume: u64,
+}
+
+impl Totals {
+    fn add(&mut self, s: &Status) {
+        let (t, u) = (&mut self.times, &s.times);
+        t.photon_trace += u.photon_trace;
+        t.surface_map += u.surface_map;
+        t.volume_map += u.volume_map;
+        t.camera += u.camera;
+        self.volume_estimates += u.volume_estimates.unwrap_or(0.0);
+        self.stored += s.photons_stored;
+        self.stored_volume += s.volume_photons_stored;
+    }
+}
+
+pub(crate) fn run(args: BenchArgs) -> Result<()> {
+    let path = args.scene.unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
+    let scene = args.overrides.load_scene(&path)?;
+    let mut o = args.overrides.clone();
+    o.settings.iterations = o.settings.iterations.or(Some(8));
+    let settings = o.settings(&scene.settings)?;
+    let pool = thread_pool(o.threads)?;
+    let mut totals = Totals::default();
+    let mut on_iteration = |s: &Status| {
+        // The first iteration warms caches and the allocator; time the rest.
+        if s.iteration() > 1 {
+            totals.add(s);
+        }
+    };
+    let stop = AtomicBool::new(false);
+    let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, &stop))?;
+    let timed = image.info.iterations.saturating_sub(1);
+    if timed == 0 {
+        bail!("--iterations must be at least 2 for a benchmark (the first is a warm-up)");
+    }
+    let media = !scene.media.is_empty() && settings.integrator == Integrator::PhotonMapping;
+    let t = &totals.times;
+    let per_it = |x: f64| x / timed as f64;
+    let [w, h] = scene.camera.resolution;
+    let paths = (timed * settings.photons) as f64;
+    let pixels = (timed * w as u64 * h as u64) as f64;
+    let photon_pass = t.photon_trace + t.surface_map + t.volume_map;
+    println!("scene: {}", path.display());
+    println!(
+        "threads: {}, iterations timed: {timed} (after 1 warm-up), photons/iteration: {}, resolution: {w}x{h}",
+        pool.current_num_threads(),
+        settings.photons
+    );
+    println!("| step | per second | seconds per iteration |");
+    println!("|---|---|---|");
+    if settings.integrator == Integrator::PhotonMapping {
+        println!(
+            "| photon pass (trace + map builds) | {:.0} light paths/s, {:.0} surface + {:.0} volume photons stored/s | {:.4} |",
+            paths / photon_pass,
+            totals.stored as f64 / photon_pass,
+            totals.stored_volume as f64 / photon_pass,
+            per_it(photon_pass)
+        );
+        println!(
+            "| … building the surface photon map | {:.0} photons/s | {:.4} |",
+            totals.stored as f64 / t.surface_map,
+            per_it(t.surface_map)
+        );
+    }
+    let estimate = settings.volume_estimate;
+    if media {
+        println!(
+            "| … building the volume photon map ({estimate} estimate) | {:.0} photons/s | {:.4} |",
+            totals.stored_volume as f64 / t.volume_map,
+            per_it(t.volume_map)
+        );
+    }
+    let what = match (settings.integrator, media) {
+        (Integrator::Path, _) => "path tracing".to_string(),
+        (_, true) => format!("trace + surface and {estimate} estimates"),
+        (_, false) => "trace + surface estimate".to_string(),
+    };
+    println!(
+        "| camera pass ({what}) | {:.0} camera paths/s | {:.4} |",
+        pixels / t.camera,
+        per_it(t.camera)
+    );
+    if media && cfg!(feature = "profile") {
+        println!(
+            "| … in {estimate} estimates (thread time / threads) | | {:.4} |",
+            per_it(totals.volume_estimates)
+        );
+        let share = t.volume_map + totals.volume_estimates;
+        println!(
+            "volume estimate ({estimate}: map build + estimates): {:.4} s of {:.4} s per iteration ({:.0} %)",
+            per_it(share),
+            per_it(t.total()),
+            100.0 * share / t.total()
+        );
+    } else if media {
+        println!(
+            "(build with `--features profile` to also measure the time spent in {estimate} estimates)"
+        );
+    }
+    Ok(())
+}

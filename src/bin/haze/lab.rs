@@ -1,0 +1,204 @@
+//! The lab's commands: `haze converge` (error against time) and `haze validate` (analytic media).
+
+use crate::{Overrides, check_output_dir, stop_on_ctrl_c, thread_pool};
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+#[derive(Args)]
+pub(crate) struct ValidateArgs {
+    /// A short run (fewer seeds, iterations and photons).
+    #[arg(long)]
+    quick: bool,
+    /// Also write the table as Markdown to this file.
+    #[arg(long, value_name = "FILE")]
+    markdown: Option<PathBuf>,
+    /// Also write the table as CSV to this file.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Directory holding the OpenVDB assets (box.vdb, gradient.vdb).
+    #[arg(long, value_name = "DIR", default_value = "media")]
+    media: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(short = 'j', long, value_name = "T")]
+    threads: Option<usize>,
+    /// Run only the cases whose name contains this text (e.g. "half-space").
+    #[arg(long, value_name = "TEXT")]
+    case: Option<String>,
+}
+
+#[derive(Args)]
+#[command(allow_negative_numbers = true)]
+pub(crate) struct ConvergeArgs {
+    /// Scene file.
+    scene: PathBuf,
+    /// Reference image (OpenEXR at the render's resolution), e.g. from
+    /// `haze render SCENE --reference --integrator path -t 30m`.
+    #[arg(long, value_name = "REF.exr")]
+    reference: PathBuf,
+    // The time budget per run and series is --time (default 60 s); --iterations caps each run.
+    /// Independent runs per series (seeds S, S+1, …); their squared errors are averaged.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    runs: u32,
+    /// A named comparison: estimate, alpha, volume-alpha, kernel, dimension, photons,
+    /// progression or integrator (repeatable).
+    #[arg(long, value_name = "NAME")]
+    compare: Vec<String>,
+    /// A series LABEL:KEY=VALUE,… with keys of the scene's [render] table, e.g.
+    /// "alpha 0.5:alpha=0.5" (repeatable).
+    #[arg(long, value_name = "SPEC")]
+    series: Vec<String>,
+    /// Measure over the pixels X0,Y0,X1,Y1 only (X1, Y1 exclusive).
+    #[arg(long, value_name = "X0,Y0,X1,Y1")]
+    region: Option<haze::lab::converge::Region>,
+    /// Output prefix: writes PREFIX.csv, PREFIX.svg and PREFIX.md
+    /// [default: converge-SCENE-NAME].
+    #[arg(short = 'o', long, value_name = "PREFIX")]
+    output: Option<PathBuf>,
+    /// Chart title [default: the scene's file name].
+    #[arg(long)]
+    title: Option<String>,
+    #[command(flatten)]
+    overrides: Overrides,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+pub(crate) fn converge(args: ConvergeArgs) -> Result<()> {
+    use haze::lab::converge::{self, Plan, Reference};
+    let scene = args.overrides.load_scene(&args.scene)?;
+    let base = args.overrides.settings(&scene.settings)?;
+    let reference = Reference::load(&args.reference)?;
+    let time = args.overrides.settings.time_limit.unwrap_or(60.0);
+    if args.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    let mut series = Vec::new();
+    for name in &args.compare {
+        series
+            .extend(converge::preset(name, &base).map_err(|e| anyhow::anyhow!("--compare: {e}"))?);
+    }
+    for spec in &args.series {
+        series.push(
+            converge::parse_series(spec, &base).map_err(|e| anyhow::anyhow!("--series: {e}"))?,
+        );
+    }
+    if series.is_empty() {
+        series.push(converge::Series { label: "scene settings".into(), settings: base.clone() });
+    }
+    let stem = args.scene.file_stem().unwrap_or("scene".as_ref()).to_string_lossy().to_string();
+    let prefix = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("converge-{stem}")));
+    check_output_dir("--output", &prefix)?;
+    let pool = thread_pool(args.overrides.threads)?;
+    let stop = stop_on_ctrl_c();
+    let plan = Plan {
+        seconds: time,
+        runs: args.runs,
+        max_iterations: args.overrides.settings.iterations,
+        region: args.region,
+    };
+    let total = series.len() as f64 * args.runs as f64 * time;
+    let bar =
+        if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((total * 1000.0) as u64) };
+    if let Ok(style) = ProgressStyle::with_template("{elapsed_precise} [{bar:30}] ETA {eta} {msg}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let labels: Vec<String> = series.iter().map(|s| s.label.clone()).collect();
+    let runs = args.runs;
+    let mut on_progress = |si: usize, run: u32, seconds: f64| {
+        let done = (si as f64 * runs as f64 + run as f64) * time + seconds.min(time);
+        bar.set_position((done * 1000.0) as u64);
+        bar.set_message(format!("{} (run {}/{runs})", labels[si], run + 1));
+    };
+    let samples = pool
+        .install(|| converge::run(&scene, &series, &reference, &plan, &mut on_progress, &stop))?;
+    bar.finish_and_clear();
+    let summaries = converge::summarize(&scene, &series, &samples, args.runs);
+    let title = args.title.clone().unwrap_or_else(|| {
+        let [w, h] = scene.camera.resolution;
+        format!("{stem} ({w}x{h}), {} threads", pool.current_num_threads())
+    });
+    let chart = converge::chart(&title, &summaries);
+    let table = converge::markdown(&summaries);
+    let with = |ext: &str| PathBuf::from(format!("{}.{ext}", prefix.display()));
+    let write = |p: PathBuf, data: String| {
+        std::fs::write(&p, data).with_context(|| format!("cannot write {}", p.display()))
+    };
+    write(with("csv"), converge::csv(&series, &samples))?;
+    write(with("md"), table.clone())?;
+    chart.write_svg(&with("svg"))?;
+    println!("{table}");
+    println!(
+        "reference: {} ({}); {} run(s) of {:.0} s per series, {} threads",
+        args.reference.display(),
+        reference.description.as_deref().unwrap_or("no haze:reference attribute"),
+        args.runs,
+        time,
+        pool.current_num_threads()
+    );
+    println!("wrote {}.{{csv,md,svg}}", prefix.display());
+    if stop.load(Ordering::Relaxed) {
+        eprintln!("interrupted: the files hold the checkpoints reached so far");
+    }
+    Ok(())
+}
+
+pub(crate) fn validate(args: ValidateArgs) -> Result<()> {
+    use haze::lab::validate::{self, Effort};
+    if args.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    if !args.media.join("box.vdb").is_file() {
+        bail!(
+            "--media {}: box.vdb not found (run from the repository root or pass --media)",
+            args.media.display()
+        );
+    }
+    let effort = if args.quick { Effort::QUICK } else { Effort::FULL };
+    let pool = thread_pool(args.threads)?;
+    let bar = ProgressBar::new(0);
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} renders, ETA {eta}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let start = Instant::now();
+    let rows = pool.install(|| {
+        validate::run(&args.media, effort, args.case.as_deref(), |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        })
+    })?;
+    bar.finish_and_clear();
+    if rows.is_empty() {
+        bail!("--case {:?}: no case name contains it", args.case.unwrap_or_default());
+    }
+    let table = validate::markdown(&rows);
+    println!("{table}");
+    println!(
+        "{} cases, {} seeds each, {} iterations x {} light paths per render; {} threads; {:.0} s",
+        rows.len(),
+        effort.seeds,
+        effort.iterations,
+        effort.photons,
+        pool.current_num_threads(),
+        start.elapsed().as_secs_f64()
+    );
+    if let Some(p) = &args.markdown {
+        std::fs::write(p, &table).with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    if let Some(p) = &args.csv {
+        std::fs::write(p, validate::csv(&rows))
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    let failed = rows.iter().filter(|r| !r.pass()).count();
+    if failed > 0 {
+        bail!("{failed} of {} cases disagree with their references", rows.len());
+    }
+    Ok(())
+}

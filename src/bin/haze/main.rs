@@ -1,0 +1,164 @@
+//! The `haze` command line: render scenes, benchmark the passes, and the lab's tools (validate
+//! against analytic media, chart error against time). The only part of haze that prints or exits.
+
+mod bench;
+mod lab;
+mod render;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use haze::{RenderOptions, RenderSettings, Scene};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// haze: a progressive photon mapper for participating media.
+#[derive(Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file to OpenEXR (plus a PNG preview beside it).
+    Render(render::RenderArgs),
+    /// Measure the time of each step of an iteration on a scene.
+    Bench(bench::BenchArgs),
+    /// Chart error against time: render the scene while measuring its error against a reference
+    /// image at log-spaced iteration counts, for one or more series of settings; writes CSV,
+    /// Markdown and SVG, and prints fitted and theoretical slopes.
+    Converge(lab::ConvergeArgs),
+    /// Render media with known answers (furnace, Beer–Lambert, half-space, slab, point source)
+    /// with every method and report agreement with the analytic references; exits 1 if a case
+    /// fails.
+    Validate(lab::ValidateArgs),
+}
+
+/// The scene's `[render]` settings overridden from the command line, and how to run.
+#[derive(Args, Clone)]
+#[command(allow_negative_numbers = true)]
+pub(crate) struct Overrides {
+    #[command(flatten)]
+    settings: RenderOptions,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(short = 'j', long, value_name = "T")]
+    threads: Option<usize>,
+    /// Image size WIDTHxHEIGHT instead of the scene's (the field of view is kept).
+    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+    resolution: Option<[u32; 2]>,
+}
+
+fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
+    let bad = || format!("`{s}` is not a resolution WIDTHxHEIGHT such as 256x256");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) =
+        (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("resolution `{s}`: each side must lie in 1..=16384"));
+    }
+    Ok([w, h])
+}
+
+/// The command-line flag of a `[render]` key, e.g. `--time` for `time_limit`.
+fn flag(key: &str) -> String {
+    let cmd = Overrides::augment_args(clap::Command::new("haze"));
+    cmd.get_arguments()
+        .find(|a| a.get_id() == key)
+        .and_then(|a| a.get_long())
+        .map_or_else(|| key.replace('_', "-"), str::to_string)
+}
+
+impl Overrides {
+    /// Loads the scene and applies the resolution override.
+    fn load_scene(&self, path: &Path) -> Result<Scene> {
+        let mut scene = Scene::load(path)?;
+        if let Some(r) = self.resolution {
+            scene.camera.resolution = r;
+        }
+        Ok(scene)
+    }
+
+    /// `base` with the command-line settings laid over it, validated.
+    fn settings(&self, base: &RenderSettings) -> Result<RenderSettings> {
+        let s = base.with(&self.settings);
+        if let Err(e) = s.validate() {
+            bail!("--{} (or the scene's render.{}): {}", flag(e.key), e.key, e.message);
+        }
+        if self.threads == Some(0) {
+            bail!("--threads must be at least 1");
+        }
+        Ok(s)
+    }
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        b = b.num_threads(t);
+    }
+    b.build().context("cannot start worker threads")
+}
+
+/// A flag raised by Ctrl-C; a second Ctrl-C exits at once.
+fn stop_on_ctrl_c() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    stop
+}
+
+/// Refuses an output path whose directory does not exist.
+fn check_output_dir(what: &str, path: &Path) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            bail!("{what} {}: directory {} does not exist", path.display(), dir.display());
+        }
+    }
+    Ok(())
+}
+
+fn run() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Render(a) => render::run(a),
+        Command::Bench(a) => bench::run(a),
+        Command::Validate(a) => lab::validate(a),
+        Command::Converge(a) => lab::converge(a),
+    }
+}
+
+fn main() -> ExitCode {
+    // vdb-rs 0.6 panics on some corrupt files and obvhs on some degenerate geometry; the library
+    // catches those panics and returns an error, so keep the default hook from printing them as if
+    // the program had crashed.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let from_dependency = info
+            .location()
+            .is_some_and(|l| l.file().contains("vdb-rs") || l.file().contains("obvhs"));
+        if !from_dependency {
+            default_hook(info);
+        }
+    }));
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The output path for a scene: `-o` or the scene's file name with `extension`.
+fn default_output(scene: &Path, output: Option<PathBuf>, extension: &str) -> PathBuf {
+    output.unwrap_or_else(|| {
+        PathBuf::from(scene.file_stem().unwrap_or("render".as_ref())).with_extension(extension)
+    })
+}

@@ -1,0 +1,128 @@
+//! `haze render`: a scene file to OpenEXR and a PNG preview, with a progress bar.
+
+use crate::{Overrides, check_output_dir, default_output, stop_on_ctrl_c, thread_pool};
+use anyhow::{Result, bail};
+use clap::Args;
+use haze::RenderSettings;
+use haze::progress::Status;
+use haze::settings::Integrator;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+#[derive(Args)]
+#[command(allow_negative_numbers = true)]
+pub(crate) struct RenderArgs {
+    /// Scene file (TOML; see docs/scene-format.md).
+    scene: PathBuf,
+    /// Output OpenEXR file; the PNG preview is written beside it [default: SCENE-NAME.exr].
+    #[arg(short = 'o', long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    overrides: Overrides,
+    /// Write the image so far every this often (e.g. 30s) to the output files.
+    #[arg(long, value_name = "DURATION", value_parser = haze::settings::parse_duration)]
+    snapshot_every: Option<f64>,
+    /// Exposure multiplier for the PNG preview (the EXR stays linear and unscaled).
+    #[arg(long, default_value_t = 1.0, value_name = "E")]
+    exposure: f32,
+    /// Write a reference for `haze converge`: the EXR gets a `haze:reference` attribute saying
+    /// how it was made and a `variance` layer (each pixel's variance of the mean).
+    #[arg(long)]
+    reference: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+pub(crate) fn run(args: RenderArgs) -> Result<()> {
+    let scene = args.overrides.load_scene(&args.scene)?;
+    let settings = args.overrides.settings(&scene.settings)?;
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        bail!("--exposure must be a positive number, got {}", args.exposure);
+    }
+    let output = default_output(&args.scene, args.output.clone(), "exr");
+    if output.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!("--output {}: the file name must end in .exr", output.display());
+    }
+    check_output_dir("--output", &output)?;
+    let pool = thread_pool(args.overrides.threads)?;
+    let stop = stop_on_ctrl_c();
+    let bar = if args.quiet { ProgressBar::hidden() } else { progress_bar(&settings) };
+    let mut last_snapshot = Instant::now();
+    let mut snapshot_error = None;
+    let mut on_iteration = |s: &Status| {
+        update_bar(&bar, s);
+        if let Some(every) = args.snapshot_every {
+            if last_snapshot.elapsed().as_secs_f64() >= every {
+                last_snapshot = Instant::now();
+                if let Err(e) = s.snapshot().write(&output, args.exposure) {
+                    snapshot_error.get_or_insert(e);
+                }
+            }
+        }
+    };
+    let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, &stop))?;
+    bar.finish_and_clear();
+    if let Some(e) = snapshot_error {
+        eprintln!("warning: a snapshot could not be written: {e}");
+    }
+    if image.info.iterations == 0 {
+        bail!("stopped before the first iteration finished; nothing written");
+    }
+    let png = if args.reference {
+        image.write_reference(&output, args.exposure)?
+    } else {
+        image.write(&output, args.exposure)?
+    };
+    let i = &image.info;
+    let interrupted = if stop.load(Ordering::Relaxed) { " (interrupted)" } else { "" };
+    let work = match i.settings.integrator {
+        Integrator::PhotonMapping => {
+            format!("{} light paths, final radius {:.5}", i.light_paths, i.radius)
+        }
+        Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),
+    };
+    eprintln!(
+        "{} iterations{interrupted}, {work}, {:.1} s: wrote {} and {}",
+        i.iterations,
+        i.elapsed,
+        output.display(),
+        png.display()
+    );
+    if i.nonfinite_samples > 0 {
+        eprintln!("warning: {} non-finite samples were replaced by black", i.nonfinite_samples);
+    }
+    Ok(())
+}
+
+fn progress_bar(settings: &RenderSettings) -> ProgressBar {
+    let (len, template) = match settings.iterations {
+        Some(n) => (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, {per_sec}, ETA {eta} {msg}"),
+        None => (
+            (settings.time_limit.unwrap_or(1.0) * 1000.0) as u64,
+            "{elapsed_precise} [{bar:30}] time budget, ETA {eta} {msg}",
+        ),
+    };
+    let bar = ProgressBar::new(len);
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+fn update_bar(bar: &ProgressBar, s: &Status) {
+    let i = s.info;
+    match s.target_iterations {
+        Some(_) => bar.set_position(i.iterations),
+        None => bar.set_position((i.elapsed * 1000.0) as u64),
+    }
+    let rate = i.iterations as f64 / i.elapsed.max(1e-9);
+    let volume = if s.volume_photons_stored > 0 {
+        format!(", volume r = {:.5}", i.volume_radius)
+    } else {
+        String::new()
+    };
+    bar.set_message(format!("it {} ({rate:.2} it/s), r = {:.5}{volume}", i.iterations, i.radius));
+}
