@@ -1,22 +1,25 @@
-//! The camera pass: one jittered eye path per pixel and iteration, followed through specular
-//! events (mirror, glass with Fresnel, pass-through interfaces) to the first diffuse surface, where
+//! The camera pass: one jittered eye path per pixel and iteration, followed by the eye-path
+//! walker (`walk.rs`) through specular events (mirror, glass with Fresnel, pass-through
+//! interfaces) to the first diffuse surface, where
 //! the photon map gives the reflected radiance. Emitters seen directly or through specular chains
 //! add their radiance. Along every segment inside a medium, in-scattered radiance comes from the
 //! volume photons by the beam estimate (the whole segment, then the path goes on attenuated by its
 //! transmittance) or the point estimate (at a sampled collision, where the path ends; without a
 //! collision the path goes on with the free-flight weight).
 
+use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
+use crate::accel::Hit;
 use crate::estimate::surface::{Gather, surface_radiance};
 use crate::estimate::volume::{EyeSegment, beam_radiance, point_radiance};
-use crate::math::{Rgb, offset_origin};
+use crate::math::Rgb;
+use crate::medium::Medium;
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
 use crate::photon::{Photon, VolumePhoton};
-use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
-use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
+use crate::scene::material::Material;
 use crate::settings::VolumeEstimate;
-use glam::Vec2;
+use glam::Vec3;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 
 /// The photon maps of one iteration.
@@ -98,89 +101,58 @@ pub(crate) fn trace_eye(
     pass: &CameraPass,
     x: u32,
     y: u32,
-    mut at_diffuse: impl FnMut(glam::Vec3, glam::Vec3, Rgb, Rgb) -> Rgb,
+    at_diffuse: impl FnMut(Vec3, Vec3, Rgb, Rgb) -> Rgb,
 ) -> Rgb {
-    let width = scene.camera.resolution[0];
-    let mut s = Sampler::new(pass.seed, Purpose::Camera, pass.iteration, (y * width + x) as u64);
-    let pixel = Vec2::new(x as f32, y as f32) + s.next_2d();
-    let ray = scene.camera.generate_ray(pixel, s.next_2d());
-    let (mut o, mut d) = (ray.o, ray.d);
-    let mut medium = scene.camera_medium;
-    let mut beta = Rgb::ONE;
-    let mut l = Rgb::ZERO;
-    // Specular bounces so far, and pass-through crossings (which are not scattering events).
-    let (mut bounces, mut crossings) = (0u32, 0u32);
-    loop {
-        let hit = scene.intersect(o, d, f32::INFINITY);
-        if let Some(id) = medium {
-            let m = &scene.media[id as usize];
-            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-            match pass.estimate {
-                VolumeEstimate::Beam => {
-                    // One transmittance estimate per segment, shared by every photon on it and by
-                    // the path's continuation.
-                    let tr = m.segment(o, d, t_max, &mut s);
-                    let volume = &pass.volume;
-                    let seg = EyeSegment { o, w: d, t_max };
-                    l +=
-                        beta * timed(|| beam_radiance(maps.volume_beams, m, id, &seg, &tr, volume));
-                    beta *= tr.at(t_max);
+    let mut visitor = PhotonEye { maps, pass, at_diffuse };
+    walk_eye(scene, pass.seed, pass.iteration, [x, y], pass.max_depth, &mut visitor)
+}
+
+/// The photon mapper's eye path: volume estimates along segments in media, emitters counted in
+/// full, and the path's end at the first diffuse surface.
+struct PhotonEye<'a, F> {
+    maps: &'a Maps<'a>,
+    pass: &'a CameraPass,
+    at_diffuse: F,
+}
+
+impl<F: FnMut(Vec3, Vec3, Rgb, Rgb) -> Rgb> EyeVisitor for PhotonEye<'_, F> {
+    fn medium(&mut self, path: &mut EyePath, m: &Medium, id: u32, t_max: f32) -> Next {
+        let (o, d) = (path.o, path.d);
+        match self.pass.estimate {
+            VolumeEstimate::Beam => {
+                // One transmittance estimate per segment, shared by every photon on it and by the
+                // path's continuation.
+                let tr = m.segment(o, d, t_max, &mut path.s);
+                let segment = EyeSegment { o, w: d, t_max };
+                let (beams, volume) = (self.maps.volume_beams, &self.pass.volume);
+                path.l += path.beta * timed(|| beam_radiance(beams, m, id, &segment, &tr, volume));
+                path.beta *= tr.at(t_max);
+                Next::Continue
+            }
+            VolumeEstimate::Point => {
+                let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
+                path.beta *= flight.weight;
+                if !flight.scattered {
+                    return Next::Continue;
                 }
-                VolumeEstimate::Point => {
-                    let flight = m.sample_free_flight(o, d, t_max, &mut s);
-                    beta *= flight.weight;
-                    if flight.scattered {
-                        let x = o + d * flight.t;
-                        let points = maps.volume_points;
-                        l += beta * timed(|| point_radiance(points, m, id, x, d, &pass.volume));
-                        break;
-                    }
-                }
-            }
-            if beta.max_element() <= 0.0 {
-                break;
+                let x = o + d * flight.t;
+                let (points, volume) = (self.maps.volume_points, &self.pass.volume);
+                path.l += path.beta * timed(|| point_radiance(points, m, id, x, d, volume));
+                Next::Stop
             }
         }
-        let Some(hit) = hit else { break };
-        let wo = -d;
-        let shape = &scene.shapes[hit.tag as usize];
-        if let Some(le) = shape.emission {
-            if wo.dot(hit.ng) > 0.0 {
-                l += beta * le;
-            }
-        }
-        let material = &scene.materials[shape.material as usize];
-        if *material == Material::Interface {
-            crossings += 1;
-            if crossings > MAX_CROSSINGS {
-                break;
-            }
-            medium = shape.medium_after(medium, wo, d, hit.ng);
-            o = offset_origin(hit.p, hit.ng, d);
-            continue;
-        }
-        if material.is_diffuse() {
-            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-            let f = material.diffuse_f();
-            l += at_diffuse(hit.p, n, f, beta);
-            break;
-        }
-        // A specular bounce is a scattering event; pass-through crossings above were not.
-        bounces += 1;
-        if bounces >= pass.max_depth {
-            break;
-        }
-        let Some(bs) =
-            material.sample(wo, hit.ng, hit.ns, s.next_2d(), s.next_f32(), Transport::Radiance)
-        else {
-            break;
-        };
-        beta *= bs.weight;
-        medium = shape.medium_after(medium, wo, bs.wi, hit.ng);
-        o = offset_origin(hit.p, hit.ng, bs.wi);
-        d = bs.wi;
     }
-    l
+
+    fn emission(&mut self, path: &EyePath, _hit: &Hit, le: Rgb) -> Rgb {
+        path.beta * le
+    }
+
+    fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
+        let wo = -path.d;
+        let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+        path.l += (self.at_diffuse)(hit.p, n, material.diffuse_f(), path.beta);
+        Next::Stop
+    }
 }
 
 /// Renders one iteration image into `image` (row-major). Returns `false` if `stop` was raised

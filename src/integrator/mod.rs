@@ -8,9 +8,11 @@
 //! - the unbiased reference path tracer (`path.rs`): one path per pixel.
 
 pub(crate) mod camera;
+pub(crate) mod direct;
 pub(crate) mod original;
 pub(crate) mod path;
 pub(crate) mod ppm;
+pub(crate) mod walk;
 
 use crate::error::{Error, Result};
 use crate::film::Film;

@@ -11,10 +11,11 @@ use crate::estimate::surface::Gather;
 use crate::math::Rgb;
 use crate::photon::beam::{BeamMap, Thinning};
 use crate::photon::map::PhotonGrid;
-use crate::photon::trace::{LightSampler, PhotonPass, Photons, trace_photons};
+use crate::photon::trace::{PhotonPass, Photons, trace_photons};
 use crate::photon::{Photon, VolumePhoton};
 use crate::progress::StepTimes;
 use crate::scene::Scene;
+use crate::scene::light::LightSampler;
 use crate::settings::{RenderSettings, VolumeEstimate};
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
@@ -58,7 +59,7 @@ impl PhotonMapper {
             r1_vol: settings.initial_volume_radius(diagonal),
             volume_alpha: settings.volume_alpha,
             volume_dimension: settings.volume_dimension,
-            lights: LightSampler::new(scene),
+            lights: LightSampler::new(&scene.lights, scene.shapes.len()),
             photons: Photons::default(),
             surface_map: PhotonGrid::default(),
             volume_points: PhotonGrid::default(),

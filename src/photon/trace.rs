@@ -6,68 +6,16 @@
 //! same whatever the thread count.
 
 use super::{Photon, VolumePhoton};
-use crate::math::{Rgb, luminance, offset_origin};
+use crate::math::{Rgb, offset_origin};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
+use crate::scene::light::LightSampler;
 use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Light paths per parallel work item.
 const CHUNK: u64 = 4096;
-
-/// Chooses lights in proportion to their power.
-pub struct LightSampler {
-    cdf: Vec<f32>,
-    total: f32,
-    /// For each shape, the index of its area light and that light's area, if it emits.
-    area_lights: Vec<Option<(usize, f32)>>,
-}
-
-impl LightSampler {
-    /// Builds the distribution over `scene.lights` (mean-channel power).
-    pub fn new(scene: &Scene) -> Self {
-        let mut total = 0.0;
-        let cdf = scene
-            .lights
-            .iter()
-            .map(|l| {
-                total += luminance(l.power());
-                total
-            })
-            .collect();
-        let mut area_lights = vec![None; scene.shapes.len()];
-        for (i, l) in scene.lights.iter().enumerate() {
-            if let crate::scene::light::Light::Area { shape, emitter, .. } = l {
-                area_lights[*shape as usize] = Some((i, emitter.area()));
-            }
-        }
-        Self { cdf, total, area_lights }
-    }
-
-    /// The area light of shape `shape` and its area, if the shape emits.
-    pub fn area_light(&self, shape: u32) -> Option<(usize, f32)> {
-        self.area_lights.get(shape as usize).copied().flatten()
-    }
-
-    /// True if no light emits anything.
-    pub fn is_empty(&self) -> bool {
-        self.total <= 0.0
-    }
-
-    /// The probability that [`Self::pick`] returns light `i`.
-    pub fn prob(&self, i: usize) -> f32 {
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        (self.cdf[i] - lo) / self.total
-    }
-
-    /// A light index and its probability.
-    pub fn pick(&self, u: f32) -> (usize, f32) {
-        let target = u * self.total;
-        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
-        (i, self.prob(i))
-    }
-}
 
 /// Settings of one photon pass.
 #[derive(Clone, Copy, Debug)]

@@ -26,9 +26,10 @@
 //! ```
 
 use crate::math::{
-    Frame, Rgb, sample_concentric_disc, sample_cosine_hemisphere, sample_triangle,
+    Frame, Rgb, luminance, sample_concentric_disc, sample_cosine_hemisphere, sample_triangle,
     sample_uniform_cone, sample_uniform_sphere, smoothstep,
 };
+use crate::rng::Sampler;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -185,7 +186,7 @@ impl Light {
         }
     }
 
-    /// Intensity of a spot light towards local cos θ (W/sr); used by tests and docs.
+    /// Intensity of a spot light towards local cos θ (W/sr).
     pub fn spot_intensity(&self, cos_theta: f32) -> Rgb {
         match self {
             Light::Spot { intensity, cos_max, cos_start, .. } => {
@@ -193,6 +194,144 @@ impl Light {
             }
             _ => Rgb::ZERO,
         }
+    }
+}
+
+/// Light arriving at a point from a sampled point of a light ([`Light::sample_li`]).
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the point towards the light.
+    pub wi: Vec3,
+    /// Distance to the sampled point of the light (infinite for a directional light); for area
+    /// lights slightly shortened, so that a shadow ray stops short of the emitter's surface.
+    pub dist: f32,
+    /// Incident radiance times the geometry term divided by the sampling pdf (area lights), or
+    /// the irradiance-like contribution of a delta light (intensity / d², or the irradiance).
+    pub value: Rgb,
+    /// Solid-angle density of `wi` at the point (area lights); `None` for delta lights, which
+    /// no other strategy can sample.
+    pub pdf: Option<f32>,
+}
+
+impl Light {
+    /// Samples light arriving at `p`: a direction towards the light, the distance, and what it
+    /// brings (see [`LightSample`]). Area lights are sampled uniformly by area and converted to
+    /// solid angle; `None` if the sampled point faces away from `p` or coincides with it.
+    pub fn sample_li(&self, p: Vec3, s: &mut Sampler) -> Option<LightSample> {
+        match self {
+            Light::Point { position, intensity } => {
+                let v = *position - p;
+                let d2 = v.length_squared();
+                (d2 > 0.0).then(|| {
+                    let dist = d2.sqrt();
+                    LightSample { wi: v / dist, dist, value: *intensity / d2, pdf: None }
+                })
+            }
+            Light::Spot { position, frame, .. } => {
+                let v = *position - p;
+                let d2 = v.length_squared();
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                let wi = v / dist;
+                let value = self.spot_intensity(frame.n.dot(-wi)) / d2;
+                Some(LightSample { wi, dist, value, pdf: None })
+            }
+            Light::Directional { direction, irradiance, .. } => Some(LightSample {
+                wi: -*direction,
+                dist: f32::INFINITY,
+                value: *irradiance,
+                pdf: None,
+            }),
+            Light::Area { radiance, emitter, .. } => {
+                let (q, n) = emitter.sample_point(s.next_f32(), s.next_2d());
+                let v = q - p;
+                let d2 = v.length_squared();
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                let wi = v / dist;
+                let cos_l = n.dot(-wi);
+                if cos_l <= 0.0 {
+                    return None;
+                }
+                let dist = dist * (1.0 - 1e-4);
+                let area = emitter.area();
+                Some(LightSample {
+                    wi,
+                    dist,
+                    value: *radiance * (cos_l * area / d2),
+                    pdf: Some(d2 / (cos_l * area)),
+                })
+            }
+        }
+    }
+}
+
+/// Chooses lights in proportion to their power, and knows which shapes are area lights.
+pub struct LightSampler {
+    cdf: Vec<f32>,
+    total: f32,
+    /// For each shape, the index of its area light and that light's area, if it emits.
+    area_lights: Vec<Option<(usize, f32)>>,
+}
+
+impl LightSampler {
+    /// The distribution over `lights` (mean-channel power), for a scene of `shapes` shapes.
+    pub fn new(lights: &[Light], shapes: usize) -> Self {
+        let mut total = 0.0;
+        let cdf = lights
+            .iter()
+            .map(|l| {
+                total += luminance(l.power());
+                total
+            })
+            .collect();
+        let mut area_lights = vec![None; shapes];
+        for (i, l) in lights.iter().enumerate() {
+            if let Light::Area { shape, emitter, .. } = l {
+                area_lights[*shape as usize] = Some((i, emitter.area()));
+            }
+        }
+        Self { cdf, total, area_lights }
+    }
+
+    /// The area light of shape `shape` and its area, if the shape emits.
+    pub fn area_light(&self, shape: u32) -> Option<(usize, f32)> {
+        self.area_lights.get(shape as usize).copied().flatten()
+    }
+
+    /// True if no light emits anything.
+    pub fn is_empty(&self) -> bool {
+        self.total <= 0.0
+    }
+
+    /// The probability that [`Self::pick`] returns light `i`.
+    pub fn prob(&self, i: usize) -> f32 {
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        (self.cdf[i] - lo) / self.total
+    }
+
+    /// A light index and its probability.
+    pub fn pick(&self, u: f32) -> (usize, f32) {
+        let target = u * self.total;
+        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
+        (i, self.prob(i))
+    }
+
+    /// The density with which next-event estimation from `from` (choosing a light with
+    /// [`Self::pick`], then [`Light::sample_li`]) picks the direction towards the point `to` of
+    /// the emitting shape `shape`, whose surface there has the cosine `cos_l` with that direction:
+    /// P(light) · d² / (|cos_l| · area), per solid angle. Zero if the shape does not emit.
+    pub fn pdf_li(&self, shape: u32, from: Vec3, to: Vec3, cos_l: f32) -> f32 {
+        let Some((li, area)) = self.area_light(shape) else { return 0.0 };
+        let cos_l = cos_l.abs();
+        if cos_l <= 0.0 || area <= 0.0 {
+            return 0.0;
+        }
+        self.prob(li) * (to - from).length_squared() / (cos_l * area)
     }
 }
 

@@ -64,12 +64,26 @@ pub struct BsdfSample {
     pub wi: Vec3,
     /// f · |cos| / pdf, including the shading-normal correction for light paths.
     pub weight: Rgb,
+    /// Solid-angle density of `wi` ([`Material::pdf`]); zero for a delta (specular) direction.
+    pub pdf: f32,
+}
+
+/// The geometric and shading normals turned to the side of `wo`.
+#[inline]
+fn facing(wo: Vec3, ng: Vec3, ns: Vec3) -> (Vec3, Vec3) {
+    if wo.dot(ng) >= 0.0 { (ng, ns) } else { (-ng, -ns) }
 }
 
 impl Material {
     /// True for materials on which photons are stored and radiance is estimated.
     pub fn is_diffuse(&self) -> bool {
         matches!(self, Material::Diffuse { .. })
+    }
+
+    /// True for materials that scatter only into delta directions (mirror, glass,
+    /// pass-through), which [`Self::eval`] and [`Self::pdf`] cannot see.
+    pub fn is_specular(&self) -> bool {
+        !self.is_diffuse()
     }
 
     /// The BRDF value of a diffuse material (zero for specular ones).
@@ -80,10 +94,42 @@ impl Material {
         }
     }
 
+    /// f(wo, wi) · |cos θ_i| for scattering from `wo` into `wi` (both unit, pointing away from
+    /// the surface), with the geometric normal `ng` and shading normal `ns` as in [`Self::sample`];
+    /// the cosine is taken with the shading normal. For light paths ([`Transport::Importance`])
+    /// the adjoint BSDF with Veach's shading-normal correction (1997, eq. 5.17). Zero for delta
+    /// materials and where `wi` lies below the surface on `wo`'s side.
+    pub fn eval(&self, wo: Vec3, wi: Vec3, ng: Vec3, ns: Vec3, mode: Transport) -> Rgb {
+        let Material::Diffuse { albedo } = self else { return Rgb::ZERO };
+        let (ng, ns) = facing(wo, ng, ns);
+        if wi.dot(ng) <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let f = *albedo * FRAC_1_PI;
+        match mode {
+            Transport::Radiance => f * wi.dot(ns).max(0.0),
+            Transport::Importance => {
+                f * (wo.dot(ns) * wi.dot(ng)).abs() / wo.dot(ng).abs().max(1e-6)
+            }
+        }
+    }
+
+    /// The solid-angle density with which [`Self::sample`] picks `wi` given `wo`; zero for delta
+    /// materials and where `wi` lies below the surface on `wo`'s side.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3, ng: Vec3, ns: Vec3) -> f32 {
+        if !self.is_diffuse() {
+            return 0.0;
+        }
+        let (ng, ns) = facing(wo, ng, ns);
+        if wi.dot(ng) <= 0.0 { 0.0 } else { wi.dot(ns).max(0.0) * FRAC_1_PI }
+    }
+
     /// Samples a direction given the outgoing direction `wo` (unit, pointing away from the
     /// surface), the geometric normal `ng` (oriented outward, as the shape defines it) and the
-    /// shading normal `ns` (same side as `ng`). `u` and `u_lobe` are uniform samples. `None` means
-    /// the path ends (an impossible configuration, e.g. `wo` below the shading hemisphere).
+    /// shading normal `ns` (same side as `ng`). `u` and `u_lobe` are uniform samples (diffuse
+    /// surfaces use only `u`, glass only `u_lobe`). `None` means the path ends: the sampled
+    /// direction lies below the surface, or — for light paths, whose shading-normal correction
+    /// assumes it — `wo` lies below the shading hemisphere.
     pub fn sample(
         &self,
         wo: Vec3,
@@ -96,9 +142,9 @@ impl Material {
         match self {
             Material::Diffuse { albedo } => {
                 // Work on the side of wo.
-                let (ng, ns) = if wo.dot(ng) >= 0.0 { (ng, ns) } else { (-ng, -ns) };
+                let (ng, ns) = facing(wo, ng, ns);
                 let wi = Frame::new(ns).to_world(sample_cosine_hemisphere(u));
-                if wi.dot(ng) <= 0.0 || wo.dot(ns) <= 0.0 {
+                if wi.dot(ng) <= 0.0 || (mode == Transport::Importance && wo.dot(ns) <= 0.0) {
                     return None;
                 }
                 let weight = match mode {
@@ -109,7 +155,8 @@ impl Material {
                             / (wo.dot(ng) * wi.dot(ns)).abs().max(1e-6)
                     }
                 };
-                Some(BsdfSample { wi, weight })
+                let pdf = wi.dot(ns).max(0.0) * FRAC_1_PI;
+                Some(BsdfSample { wi, weight, pdf })
             }
             Material::Mirror { reflectance } => {
                 let n = if wo.dot(ng) >= 0.0 { ns } else { -ns };
@@ -117,7 +164,7 @@ impl Material {
                 if wi.dot(ng) * wo.dot(ng) <= 0.0 {
                     return None;
                 }
-                Some(BsdfSample { wi, weight: *reflectance })
+                Some(BsdfSample { wi, weight: *reflectance, pdf: 0.0 })
             }
             Material::Dielectric { ior } => {
                 let entering = wo.dot(ng) >= 0.0;
@@ -129,16 +176,16 @@ impl Material {
                 }
                 let f = fresnel_dielectric(cos_o, eta);
                 if u_lobe < f {
-                    return Some(BsdfSample { wi: reflect(wo, n), weight: Rgb::ONE });
+                    return Some(BsdfSample { wi: reflect(wo, n), weight: Rgb::ONE, pdf: 0.0 });
                 }
                 let wi = refract(wo, n, eta)?;
                 let scale = match mode {
                     Transport::Radiance => eta * eta,
                     Transport::Importance => 1.0,
                 };
-                Some(BsdfSample { wi, weight: Rgb::splat(scale) })
+                Some(BsdfSample { wi, weight: Rgb::splat(scale), pdf: 0.0 })
             }
-            Material::Interface => Some(BsdfSample { wi: -wo, weight: Rgb::ONE }),
+            Material::Interface => Some(BsdfSample { wi: -wo, weight: Rgb::ONE, pdf: 0.0 }),
         }
     }
 }

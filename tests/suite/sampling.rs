@@ -5,9 +5,9 @@
 use crate::common::{SIGNIFICANCE, assert_agrees, chi_square_p};
 use glam::Vec3;
 use haze::math::{Frame, sample_cosine_hemisphere};
-use haze::photon::trace::LightSampler;
 use haze::rng::{Purpose, Sampler};
 use haze::scene::camera::{Camera, Projection};
+use haze::scene::light::LightSampler;
 use haze::scene::light::{Emitter, Light};
 use haze::scene::material::Material;
 use haze::scene::{Geometry, LightDesc, SceneBuilder, shape};
@@ -133,7 +133,7 @@ fn lights_are_chosen_in_proportion_to_power() {
         b.light(LightDesc::Point { position, power: Vec3::splat(w) }).unwrap();
     }
     let scene = b.build().unwrap();
-    let sampler = LightSampler::new(&scene);
+    let sampler = LightSampler::new(&scene.lights, scene.shapes.len());
     let total: f32 = powers.iter().sum();
     let mut counts = vec![0u64; powers.len()];
     let mut s = Sampler::new(15, Purpose::Other, 0, 0);
