@@ -180,6 +180,7 @@ impl Accel {
     }
 
     /// True if nothing blocks `o + t d` for `0 < t < t_max`.
+    #[cfg(test)]
     pub fn unoccluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         match &self.bvh {
             None => true,

@@ -24,8 +24,8 @@ pub enum Error {
         /// What is wrong, naming the key.
         message: String,
     },
-    /// The scene file parses but describes something impossible.
-    #[error("{path}{}: {key}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    /// The scene file (or a scene built in code) describes something impossible.
+    #[error("{}{key}: {message}", place(path, *line))]
     Invalid {
         /// The scene file (empty for scenes built in code).
         path: PathBuf,
@@ -63,6 +63,17 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+}
+
+/// "FILE:LINE: " or "FILE: " before a key, or nothing for a scene built in code.
+fn place(path: &std::path::Path, line: Option<usize>) -> String {
+    if path.as_os_str().is_empty() {
+        return String::new();
+    }
+    match line {
+        Some(l) => format!("{}:{l}: ", path.display()),
+        None => format!("{}: ", path.display()),
+    }
 }
 
 /// Result type of the library.

@@ -26,27 +26,36 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod accel;
-pub mod dda;
+mod accel;
+mod dda;
 pub mod error;
-pub mod estimate;
+mod estimate;
 pub mod film;
-pub mod integrator;
+mod integrator;
 #[cfg(feature = "lab")]
 pub mod lab;
-pub mod math;
-pub mod medium;
+mod math;
+mod medium;
 pub mod output;
-pub mod photon;
+mod photon;
 pub mod progress;
 mod render;
-pub mod rng;
+mod rng;
 pub mod scene;
 pub mod settings;
+#[cfg(test)]
+mod testing;
 
 pub use error::{Error, Result};
+pub use glam;
 pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};
 pub use render::render;
-pub use scene::Scene;
+pub use scene::{Scene, SceneBuilder};
 pub use settings::{RenderOptions, RenderSettings};
+
+/// The radius schedule of probabilistic progressive photon mapping (Knaus & Zwicker 2011):
+/// r_{i+1}^d / r_i^d = (i + α)/(i + 1), evaluated in f64 without stalling.
+pub mod schedule {
+    pub use crate::estimate::radius::{radius, radius_ratio};
+}

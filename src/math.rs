@@ -2,7 +2,7 @@
 //! routines shared by the light and camera passes.
 
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::PI;
 
 /// RGB radiometric quantity (radiance, power, throughput …), linear, per channel.
 pub type Rgb = Vec3;
@@ -38,13 +38,14 @@ impl Frame {
 
     /// Local coordinates to world.
     #[inline]
-    pub fn to_world(&self, v: Vec3) -> Vec3 {
+    pub fn to_world(self, v: Vec3) -> Vec3 {
         self.s * v.x + self.t * v.y + self.n * v.z
     }
 
     /// World coordinates to local.
     #[inline]
-    pub fn to_local(&self, v: Vec3) -> Vec3 {
+    #[cfg(test)]
+    pub fn to_local(self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
     }
 }
@@ -91,9 +92,9 @@ pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
 }
 
 /// Density of [`sample_cosine_hemisphere`] with respect to solid angle.
-#[inline]
+#[cfg(test)]
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    cos_theta.max(0.0) * FRAC_1_PI
+    cos_theta.max(0.0) * std::f32::consts::FRAC_1_PI
 }
 
 /// Uniform point on the unit disc (Shirley–Chiu concentric map).
@@ -174,6 +175,15 @@ pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::{ChiSquare, Domain, Sample};
+
+    #[test]
+    fn cosine_hemisphere_matches_its_density() {
+        ChiSquare::new("cosine hemisphere", Domain::Sphere, 1).run(
+            |s| Some(Sample::Direction(sample_cosine_hemisphere(s.next_2d()))),
+            |d| cosine_hemisphere_pdf(d.direction().z.max(0.0)) as f64,
+        );
+    }
 
     #[test]
     fn frame_is_orthonormal() {

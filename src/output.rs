@@ -52,6 +52,11 @@ fn out_err(path: &Path, message: impl ToString) -> Error {
     Error::Output { path: path.to_path_buf(), message: message.to_string() }
 }
 
+/// A path's extension, lower case.
+fn extension(path: &Path) -> Option<String> {
+    path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase)
+}
+
 /// Linear → sRGB transfer, clamped to [0, 1], as an 8-bit value.
 fn srgb8(v: f32) -> u8 {
     let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
@@ -77,12 +82,26 @@ impl Image {
         s / (3.0 * self.pixels.len() as f64)
     }
 
-    /// Writes the OpenEXR file and, beside it, the PNG preview (same name, `.png`).
-    pub fn write(&self, exr_path: &Path, exposure: f32) -> Result<PathBuf> {
-        self.write_exr(exr_path)?;
-        let png = exr_path.with_extension("png");
-        self.write_png(&png, exposure)?;
-        Ok(png)
+    /// Writes the image in the format its extension names, and returns the files written:
+    /// `.exr` writes the OpenEXR file and, beside it, a PNG preview (same name, `.png`, scaled by
+    /// `exposure`); `.png` writes only the preview. Any other extension is refused.
+    pub fn write(&self, path: &Path, exposure: f32) -> Result<Vec<PathBuf>> {
+        match extension(path).as_deref() {
+            Some("exr") => {
+                self.write_exr(path)?;
+                let png = path.with_extension("png");
+                self.write_png(&png, exposure)?;
+                Ok(vec![path.to_path_buf(), png])
+            }
+            Some("png") => {
+                self.write_png(path, exposure)?;
+                Ok(vec![path.to_path_buf()])
+            }
+            _ => Err(out_err(
+                path,
+                "unknown image format: name the file .exr (OpenEXR, with a PNG preview beside it) or .png",
+            )),
+        }
     }
 
     /// Writes linear RGB f32 OpenEXR with the metadata as header attributes.
@@ -95,11 +114,14 @@ impl Image {
     /// path-traced references, a second layer, `variance`, holding each pixel's estimated
     /// variance of the mean, which `haze converge` subtracts from its squared errors. Also writes
     /// the PNG preview.
-    pub fn write_reference(&self, exr_path: &Path, exposure: f32) -> Result<PathBuf> {
+    pub fn write_reference(&self, exr_path: &Path, exposure: f32) -> Result<Vec<PathBuf>> {
+        if extension(exr_path).as_deref() != Some("exr") {
+            return Err(out_err(exr_path, "a reference is an OpenEXR file: name it .exr"));
+        }
         self.write_exr_with(exr_path, true)?;
         let png = exr_path.with_extension("png");
         self.write_png(&png, exposure)?;
-        Ok(png)
+        Ok(vec![exr_path.to_path_buf(), png])
     }
 
     /// How a reference was made, as its `haze:reference` attribute says.

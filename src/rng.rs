@@ -14,7 +14,8 @@ pub enum Purpose {
     Photon = 1,
     /// Eye paths of the camera pass.
     Camera = 2,
-    /// Anything else (tests, benchmarks).
+    /// Anything else (tests).
+    #[cfg(test)]
     Other = 3,
     /// Russian-roulette thinning of dense photon cells.
     Thinning = 4,
@@ -50,12 +51,6 @@ impl Sampler {
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_f32(), self.next_f32())
-    }
-
-    /// Uniform 64-bit integer.
-    #[inline]
-    pub fn next_u64(&mut self) -> u64 {
-        self.0.next_u64()
     }
 }
 

@@ -297,7 +297,7 @@ pub fn run(
     progress: &mut dyn FnMut(usize, u32, f64),
     stop: &AtomicBool,
 ) -> Result<Vec<Sample>> {
-    let [w, h] = scene.camera.resolution;
+    let [w, h] = scene.resolution();
     if [w, h] != [reference.width, reference.height] {
         return Err(Error::Settings(format!(
             "the reference is {}x{} but the scene renders {w}x{h}; render the reference at the same resolution",
@@ -329,7 +329,7 @@ pub fn run(
     // Refuse a series that cannot render before any work is done.
     for s in series {
         s.settings.validate().map_err(|e| Error::Settings(format!("series `{}`: {e}", s.label)))?;
-        if s.settings.progression == Progression::Original && !scene.media.is_empty() {
+        if s.settings.progression == Progression::Original && scene.has_media() {
             return Err(Error::Settings(format!(
                 "series `{}`: the original progression is for surfaces only; this scene has media",
                 s.label
@@ -409,7 +409,7 @@ pub fn theory_slope(scene: &Scene, settings: &RenderSettings) -> f64 {
     // MSE exponent of an estimate with kernel dimension k on a schedule of dimension d.
     let exponent = |k: f64, d: f64, a: f64| (1.0 - k * (1.0 - a) / d).min(4.0 * (1.0 - a) / d);
     let mut e = exponent(2.0, 2.0, settings.alpha);
-    if !scene.media.is_empty() && settings.progression == Progression::Probabilistic {
+    if scene.has_media() && settings.progression == Progression::Probabilistic {
         let k = match settings.volume_estimate {
             VolumeEstimate::Beam => 2.0,
             VolumeEstimate::Point => 3.0,

@@ -55,3 +55,40 @@ impl Homogeneous {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{ChiSquare, Domain, Sample};
+    use glam::DVec2;
+
+    /// Free-flight distances with chromatic extinction follow the channel-averaged density
+    /// p(t) = (1/3) Σ σ_c e^{−σ_c t}, and reaching t_max has the averaged probability (the
+    /// failure bin); the weights are T(t)/p(t) and T(t_max)/P.
+    #[test]
+    fn free_flight_follows_the_averaged_density() {
+        let h = Homogeneous {
+            sigma_a: Rgb::new(0.5, 0.5, 1.0),
+            sigma_s: Rgb::new(0.5, 1.5, 3.0),
+            phase: HenyeyGreenstein { g: 0.0 },
+        };
+        let (sigma_t, t_max) = (h.sigma_t().as_dvec3(), 1.2f64);
+        let density = |t: f64| ((sigma_t * (-sigma_t * t).exp()).element_sum()) / 3.0;
+        let mut test = ChiSquare::new("homogeneous free flight", Domain::Square, 1);
+        test.bins = [48, 1];
+        test.run(
+            |s| {
+                let f = h.sample_free_flight(t_max as f32, s.next_f32(), s.next_f32());
+                let t = f.t as f64;
+                let tr = (-sigma_t * t).exp();
+                let want =
+                    if f.scattered { tr / density(t) } else { tr / (tr.element_sum() / 3.0) };
+                assert!(
+                    (f.weight.as_dvec3() - want).abs().max_element() < 1e-4 * want.max_element()
+                );
+                f.scattered.then(|| Sample::Point(DVec2::new(t / t_max, 0.5)))
+            },
+            |p| t_max * density(p.point().x * t_max),
+        );
+    }
+}

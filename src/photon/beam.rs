@@ -147,17 +147,8 @@ impl BeamMap {
         Self::default()
     }
 
-    /// Number of photons stored.
-    pub fn len(&self) -> usize {
-        self.photons.len()
-    }
-
-    /// True if empty.
-    pub fn is_empty(&self) -> bool {
-        self.photons.is_empty()
-    }
-
     /// True if the last build made view bins (pinhole camera, not too many entries).
+    #[cfg(test)]
     pub fn has_view_bins(&self) -> bool {
         self.view_active
     }

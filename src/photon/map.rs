@@ -35,18 +35,9 @@ fn hash(c: IVec3) -> usize {
 
 impl<P: Located + Copy + Default> PhotonGrid<P> {
     /// An empty grid.
+    #[cfg(test)]
     pub fn new() -> Self {
         Self::default()
-    }
-
-    /// Number of photons stored.
-    pub fn len(&self) -> usize {
-        self.photons.len()
-    }
-
-    /// True if no photon is stored.
-    pub fn is_empty(&self) -> bool {
-        self.photons.is_empty()
     }
 
     /// Rebuilds the grid over `photons` for queries of radius `radius`.

@@ -20,8 +20,6 @@ use glam::Vec3;
 pub struct Photon {
     /// Position.
     pub p: Vec3,
-    /// Direction the photon came from (unit, pointing away from the surface).
-    pub wi: Vec3,
     /// Geometric normal of the surface it landed on, on the side it arrived from.
     pub n: Vec3,
     /// Power (W per emitted path, see above).

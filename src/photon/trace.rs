@@ -120,7 +120,7 @@ fn trace_path(
         if material.is_diffuse() {
             // Power convention (see `Photon`): store the path throughput as it arrives.
             let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-            out.surface.push(Photon { p: hit.p, wi: wo, n, beta });
+            out.surface.push(Photon { p: hit.p, n, beta });
         }
         bounces += 1;
         if bounces >= pass.max_depth {

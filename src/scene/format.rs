@@ -181,19 +181,6 @@ pub enum ShapeDef {
     Obj(ObjDef),
 }
 
-impl ShapeDef {
-    /// The `interior` and `exterior` medium names.
-    pub fn media(&self) -> (Option<&String>, Option<&String>) {
-        match self {
-            ShapeDef::Rectangle(d) => (d.interior.as_ref(), d.exterior.as_ref()),
-            ShapeDef::Box(d) => (d.interior.as_ref(), d.exterior.as_ref()),
-            ShapeDef::Sphere(d) => (d.interior.as_ref(), d.exterior.as_ref()),
-            ShapeDef::Mesh(d) => (d.interior.as_ref(), d.exterior.as_ref()),
-            ShapeDef::Obj(d) => (d.interior.as_ref(), d.exterior.as_ref()),
-        }
-    }
-}
-
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PointDef {

@@ -344,6 +344,242 @@ pub fn spot_solid_angle(cos_max: f32, cos_start: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::{ChiSquare, Domain, Sample, assert_agrees, chi_square_p};
+    use glam::DVec2;
+    use std::f64::consts::PI as PI64;
+
+    /// A 2 × 1 rectangle in the xy-plane facing +z, centred at `c`, as two triangles.
+    fn rectangle(c: Vec3) -> Emitter {
+        let [a, b, d, e] = [(-1.0, -0.5), (1.0, -0.5), (1.0, 0.5), (-1.0, 0.5)]
+            .map(|(x, y)| c + Vec3::new(x, y, 0.0));
+        Emitter::Triangles { triangles: vec![[a, b, d], [a, d, e]], cdf: vec![1.0, 2.0] }
+    }
+
+    fn area(emitter: Emitter) -> Light {
+        Light::Area { shape: 0, radiance: Rgb::splat(1.5), emitter }
+    }
+
+    /// Point and area lights (rectangle and sphere) emit with the right densities of position
+    /// and direction, and every photon carries the light's power (chi-square tests, 6 in all).
+    #[test]
+    fn emission_follows_its_densities() {
+        const TESTS: usize = 6;
+        let point = Light::Point { position: Vec3::ONE, intensity: Rgb::splat(2.0) };
+        ChiSquare::new("point light directions", Domain::Sphere, TESTS).run(
+            |s| {
+                let e = point.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
+                assert_eq!(e.p, Vec3::ONE);
+                assert!((e.beta - point.power()).abs().max_element() < 1e-4);
+                Some(Sample::Direction(e.d))
+            },
+            |_| 1.0 / (4.0 * PI64),
+        );
+        let rect = area(rectangle(Vec3::ZERO));
+        assert!((rect.power() - Rgb::splat(1.5 * PI * 2.0)).abs().max_element() < 1e-4);
+        ChiSquare::new("rectangle emission positions", Domain::Square, TESTS).run(
+            |s| {
+                let e = rect.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
+                assert!((e.n - Vec3::Z).length() < 1e-6 && e.beta == rect.power());
+                let uv = DVec2::new((e.p.x as f64 + 1.0) / 2.0, e.p.y as f64 + 0.5);
+                Some(Sample::Point(uv))
+            },
+            |_| 1.0,
+        );
+        ChiSquare::new("rectangle emission directions", Domain::Sphere, TESTS).run(
+            |s| {
+                Some(Sample::Direction(
+                    rect.sample_emission(s.next_f32(), s.next_2d(), s.next_2d()).d,
+                ))
+            },
+            |d| d.direction().z.max(0.0) as f64 / PI64,
+        );
+        let sphere = area(Emitter::Sphere { center: Vec3::new(0.0, 0.0, 2.0), radius: 0.5 });
+        ChiSquare::new("sphere emission positions", Domain::Sphere, TESTS).run(
+            |s| {
+                let e = sphere.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
+                assert!(e.n.dot(e.d) >= 0.0, "emitted inwards");
+                Some(Sample::Direction((e.p - Vec3::new(0.0, 0.0, 2.0)) / 0.5))
+            },
+            |_| 1.0 / (4.0 * PI64),
+        );
+        // The spot's directions: uniform in its cone around +z (the falloff is in the weight),
+        // and the photons carry its power on average (t-test on batch means).
+        let (cos_max, cos_start) = (35f32.to_radians().cos(), 20f32.to_radians().cos());
+        let power = 10.0;
+        let spot = Light::Spot {
+            position: Vec3::ZERO,
+            frame: Frame::new(Vec3::Z),
+            intensity: Rgb::splat(power / spot_solid_angle(cos_max, cos_start)),
+            cos_max,
+            cos_start,
+        };
+        let mut betas = Vec::new();
+        ChiSquare::new("spot directions", Domain::Sphere, TESTS).run(
+            |s| {
+                let e = spot.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
+                betas.push(e.beta.x as f64);
+                Some(Sample::Direction(e.d))
+            },
+            |d| {
+                let inside = d.direction().z >= cos_max;
+                if inside { 1.0 / (2.0 * PI64 * (1.0 - cos_max as f64)) } else { 0.0 }
+            },
+        );
+        let batches: Vec<f64> = betas
+            .chunks(betas.len() / 20)
+            .map(|c| c.iter().sum::<f64>() / c.len() as f64)
+            .collect();
+        assert_agrees("spot power", &batches, power as f64, 0.0);
+        // The directional light: positions uniform on the disc of its bounding sphere, in polar
+        // coordinates (r²/R², φ/2π).
+        let direction = Vec3::new(0.3, -1.0, 0.2).normalize();
+        let (center, radius) = (Vec3::new(1.0, 2.0, 3.0), 4.0);
+        let sun = Light::Directional { direction, irradiance: Rgb::splat(3.0), center, radius };
+        let frame = Frame::new(direction);
+        ChiSquare::new("directional light positions", Domain::Square, TESTS).run(
+            |s| {
+                let e = sun.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
+                assert_eq!(e.d, direction);
+                let local = frame.to_local(e.p - (center - direction * radius));
+                assert!(local.z.abs() < 1e-4, "off the disc: {local}");
+                let r2 = (local.x * local.x + local.y * local.y) as f64 / (radius * radius) as f64;
+                let phi = (local.y as f64).atan2(local.x as f64).rem_euclid(2.0 * PI64);
+                Some(Sample::Point(DVec2::new(r2, phi / (2.0 * PI64))))
+            },
+            |_| 1.0,
+        );
+    }
+
+    /// Area lights sampled from a point: the directions' density is d²/(|cos_l| A) per
+    /// steradian over the light's front-facing surface, and sample_li's `value` is radiance ×
+    /// geometry term / pdf (chi-square for a rectangle and a sphere; the sphere's far side fails).
+    #[test]
+    fn area_lights_sample_li_with_their_solid_angle_density() {
+        let at = Vec3::new(0.2, -0.3, 0.0);
+        // Facing down, one unit above `at`'s plane.
+        let rect = Light::Area {
+            shape: 0,
+            radiance: Rgb::splat(2.0),
+            emitter: match rectangle(Vec3::new(0.0, 0.0, 1.0)) {
+                Emitter::Triangles { triangles, cdf } => Emitter::Triangles {
+                    triangles: triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect(),
+                    cdf,
+                },
+                e => e,
+            },
+        };
+        let rect_pdf = |w: Vec3| {
+            // Where the ray from `at` along w meets the plane z = 1, if inside the rectangle.
+            if w.z <= 0.0 {
+                return 0.0;
+            }
+            let t = 1.0 / w.z as f64;
+            let q = at.as_dvec3() + w.as_dvec3() * t;
+            if q.x.abs() <= 1.0 && q.y.abs() <= 0.5 { t * t / (w.z as f64 * 2.0) } else { 0.0 }
+        };
+        ChiSquare::new("rectangle sample_li", Domain::Sphere, 2).run(
+            |s| {
+                let ls = rect.sample_li(at, s)?;
+                let pdf = ls.pdf.expect("area lights have a density");
+                assert!((pdf as f64 / rect_pdf(ls.wi) - 1.0).abs() < 1e-3);
+                assert!((ls.value.x as f64 - 2.0 / pdf as f64).abs() < 1e-3 * ls.value.x as f64);
+                Some(Sample::Direction(ls.wi))
+            },
+            |d| rect_pdf(d.direction()),
+        );
+        let (c, r) = (Vec3::new(0.0, 0.0, 2.0), 0.5f64);
+        let sphere = area(Emitter::Sphere { center: c, radius: r as f32 });
+        let sphere_pdf = |w: Vec3| {
+            // Nearest intersection of the ray from `at` with the sphere (the front-facing side).
+            let (o, w) = ((at - c).as_dvec3(), w.as_dvec3());
+            let b = o.dot(w);
+            let disc = b * b - (o.length_squared() - r * r);
+            if disc < 0.0 {
+                return 0.0;
+            }
+            let t = -b - disc.sqrt();
+            if t <= 0.0 {
+                return 0.0;
+            }
+            let n = (o + w * t) / r;
+            t * t / ((-n.dot(w)) * 4.0 * PI64 * r * r)
+        };
+        ChiSquare::new("sphere sample_li", Domain::Sphere, 2).run(
+            |s| sphere.sample_li(at, s).map(|ls| Sample::Direction(ls.wi)),
+            |d| sphere_pdf(d.direction()),
+        );
+    }
+
+    /// Delta lights: the direction, distance and contribution of sample_li are exact.
+    #[test]
+    fn delta_lights_sample_li_exactly() {
+        let mut s = Sampler::new(3, crate::rng::Purpose::Other, 0, 0);
+        let p = Vec3::new(0.5, 0.0, 0.0);
+        let point = Light::Point { position: Vec3::new(0.5, 2.0, 0.0), intensity: Rgb::splat(8.0) };
+        let ls = point.sample_li(p, &mut s).unwrap();
+        assert_eq!((ls.wi, ls.dist, ls.pdf), (Vec3::Y, 2.0, None));
+        assert!((ls.value - Rgb::splat(2.0)).abs().max_element() < 1e-6);
+        let (cos_max, cos_start) = (0.5f32, 0.9f32);
+        let spot = Light::Spot {
+            position: Vec3::new(0.5, 2.0, 0.0),
+            frame: Frame::new(Vec3::new(0.3, -1.0, 0.0).normalize()),
+            intensity: Rgb::splat(8.0),
+            cos_max,
+            cos_start,
+        };
+        let ls = spot.sample_li(p, &mut s).unwrap();
+        let cos = -Vec3::new(0.3, -1.0, 0.0).normalize().y;
+        let want = 8.0 * smoothstep(cos_max, cos_start, cos) / 4.0;
+        assert!((ls.value.x - want).abs() < 1e-5 && ls.pdf.is_none());
+        let sun = Light::Directional {
+            direction: -Vec3::Y,
+            irradiance: Rgb::splat(3.0),
+            center: Vec3::ZERO,
+            radius: 10.0,
+        };
+        let ls = sun.sample_li(p, &mut s).unwrap();
+        assert_eq!(
+            (ls.wi, ls.dist, ls.value, ls.pdf),
+            (Vec3::Y, f32::INFINITY, Rgb::splat(3.0), None)
+        );
+    }
+
+    /// Lights are chosen in proportion to their mean-channel power (chi-square), with the
+    /// probability `pick` reports; `pdf_li` is that probability times d²/(|cos| A).
+    #[test]
+    fn lights_are_chosen_in_proportion_to_power() {
+        let powers = [1.0f32, 3.0, 6.0, 0.5];
+        let mut lights: Vec<Light> = powers
+            .iter()
+            .enumerate()
+            .map(|(i, &w)| Light::Point {
+                position: Vec3::new(i as f32, 0.0, 0.0),
+                intensity: Rgb::splat(w / (4.0 * PI)),
+            })
+            .collect();
+        lights.push(Light::Area {
+            shape: 1,
+            radiance: Rgb::splat(1.0 / PI),
+            emitter: rectangle(Vec3::ZERO),
+        });
+        let sampler = LightSampler::new(&lights, 2);
+        let powers = [1.0f32, 3.0, 6.0, 0.5, 2.0];
+        let total: f32 = powers.iter().sum();
+        let mut counts = vec![0u64; powers.len()];
+        let mut s = Sampler::new(15, crate::rng::Purpose::Other, 0, 0);
+        for _ in 0..200_000 {
+            let (i, p) = sampler.pick(s.next_f32());
+            assert!((p - powers[i] / total).abs() < 1e-6);
+            counts[i] += 1;
+        }
+        let expected: Vec<f64> = powers.iter().map(|&w| (w / total) as f64).collect();
+        let p = chi_square_p(&counts, &expected);
+        assert!(p > crate::testing::SIGNIFICANCE, "p = {p}");
+        assert_eq!(sampler.area_light(1), Some((4, 2.0)));
+        assert_eq!(sampler.area_light(0), None);
+        let pdf = sampler.pdf_li(1, Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO, 0.5);
+        assert!((pdf - (2.0 / total) * 4.0 / (0.5 * 2.0)).abs() < 1e-5);
+    }
 
     #[test]
     fn spot_solid_angle_matches_quadrature() {

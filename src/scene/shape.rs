@@ -21,10 +21,12 @@
 //!
 //! Transforms apply scale, then rotation (degrees about x, then y, then z), then translation.
 
+use crate::error::{Error, Result};
 use glam::{Affine3A, Mat3, Quat, Vec3};
+use std::path::Path;
 
-/// A triangle mesh in world space.
-#[derive(Clone, Debug, Default)]
+/// A triangle mesh.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
     /// Vertex positions.
     pub positions: Vec<Vec3>,
@@ -174,6 +176,49 @@ pub fn icosphere(center: Vec3, radius: f32, level: u32) -> Mesh {
         normals: Some(normals),
         triangles,
     }
+}
+
+/// Loads every object of a Wavefront OBJ file as one triangle mesh.
+pub(crate) fn load_obj(path: &Path) -> Result<Mesh> {
+    let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
+    if !path.is_file() {
+        return Err(mesh_err("no such file (OBJ paths are relative to the scene file)".into()));
+    }
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| mesh_err(e.to_string()))?;
+    let mut mesh = Mesh::default();
+    let mut all_normals = true;
+    let mut normals = Vec::new();
+    for model in &models {
+        let m = &model.mesh;
+        let base = mesh.positions.len() as u32;
+        let count = m.positions.len() / 3;
+        mesh.positions.extend(m.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+        if m.normals.len() == m.positions.len() {
+            normals.extend(m.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+        } else {
+            all_normals = false;
+        }
+        for t in m.indices.chunks_exact(3) {
+            if t.iter().any(|&i| i as usize >= count) {
+                return Err(mesh_err(format!(
+                    "face index out of range in object `{}`",
+                    model.name
+                )));
+            }
+            mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
+        }
+    }
+    if mesh.triangles.is_empty() {
+        return Err(mesh_err("contains no faces".into()));
+    }
+    if all_normals {
+        // Zero-length normals in the file would give NaN shading normals: ignore the normals then.
+        if normals.iter().all(|n| n.is_finite() && n.length_squared() > 0.0) {
+            mesh.normals = Some(normals.iter().map(|n| n.normalize()).collect());
+        }
+    }
+    Ok(mesh)
 }
 
 #[cfg(test)]

@@ -13,28 +13,20 @@
 //! remains, and the test is a t-test over independent seeds at the suite's significance.
 
 use crate::common::assert_agrees;
-use glam::Vec3;
-use haze::estimate::kernel::Kernel;
 use haze::progress::Silent;
-use haze::scene::camera::{Camera, Projection};
-use haze::scene::material::Material;
-use haze::scene::{Geometry, LightDesc, SceneBuilder};
-use haze::settings::{Integrator, RenderSettings};
+use haze::scene::{CameraDesc, LightDesc, Material, SceneBuilder, ShapeDesc};
+use haze::settings::{Integrator, Kernel, RenderSettings};
 use std::f64::consts::PI;
 use std::sync::atomic::AtomicBool;
 
 pub(crate) fn sphere_scene(albedo: f32, power: f32) -> haze::Scene {
-    let camera = Camera::new(
-        Projection::Perspective { tan_half_fov: 0.6, lens_radius: 0.0, focus_distance: 1.0 },
-        Vec3::new(0.1, -0.2, 0.05),
-        Vec3::new(1.0, 0.3, 0.2),
-        Vec3::Y,
-        [16, 12],
-    );
+    let fov = 2.0 * 0.6f32.atan().to_degrees();
+    let camera =
+        CameraDesc::perspective([0.1, -0.2, 0.05], [1.0, 0.3, 0.2], fov).resolution(16, 12);
     let mut b = SceneBuilder::new(camera);
-    let m = b.material("wall", Material::Diffuse { albedo: Vec3::splat(albedo) }).unwrap();
-    b.shape(Geometry::Sphere { center: Vec3::ZERO, radius: 1.0 }, m, None).unwrap();
-    b.light(LightDesc::Point { position: Vec3::ZERO, power: Vec3::splat(power) }).unwrap();
+    let wall = b.material("wall", Material::diffuse(albedo)).unwrap();
+    b.shape(ShapeDesc::sphere([0.0, 0.0, 0.0], 1.0).material(wall)).unwrap();
+    b.light(LightDesc::point([0.0, 0.0, 0.0], power)).unwrap();
     b.build().unwrap()
 }
 

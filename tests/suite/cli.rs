@@ -40,7 +40,7 @@ fn bad_input_fails_with_a_one_line_reason() {
         (vec!["render", scene, "--alpha", "1.5"], "--alpha"),
         (vec!["render", scene, "--time", "soon"], "soon"),
         (vec!["render", scene, "--kernel", "gauss"], "gauss"),
-        (vec!["render", scene, "-o", "out.png"], ".exr"),
+        (vec!["render", scene, "-o", "out.tiff"], ".exr"),
         (vec!["render", scene, "--threads", "0"], "--threads"),
     ] {
         let (ok, err) = haze(&args);

@@ -1,38 +1,9 @@
 //! Shared helpers: statistics for Monte Carlo tests and small scenes built in code.
 
-use statrs::distribution::{ChiSquared, ContinuousCDF, StudentsT};
+use statrs::distribution::{ContinuousCDF, StudentsT};
 
 /// Significance level of every statistical test in the suite (two-sided where it applies).
 pub const SIGNIFICANCE: f64 = 1e-3;
-
-/// Pearson's chi-square goodness-of-fit test of `observed` counts against `expected`
-/// probabilities. Bins with an expected count below 5 are pooled into one. Returns the p-value.
-pub fn chi_square_p(observed: &[u64], expected_prob: &[f64]) -> f64 {
-    assert_eq!(observed.len(), expected_prob.len());
-    let n: u64 = observed.iter().sum();
-    let (mut stat, mut dof) = (0.0, 0usize);
-    let (mut pooled_o, mut pooled_e) = (0.0, 0.0);
-    for (&o, &p) in observed.iter().zip(expected_prob) {
-        let e = p * n as f64;
-        if e < 5.0 {
-            pooled_o += o as f64;
-            pooled_e += e;
-            continue;
-        }
-        stat += (o as f64 - e).powi(2) / e;
-        dof += 1;
-    }
-    if pooled_e > 0.0 {
-        if pooled_e >= 5.0 {
-            stat += (pooled_o - pooled_e).powi(2) / pooled_e;
-            dof += 1;
-        } else {
-            assert!(pooled_o <= 5.0 + 10.0 * pooled_e, "{pooled_o} samples in near-empty bins");
-        }
-    }
-    assert!(dof >= 2, "too few usable bins");
-    1.0 - ChiSquared::new((dof - 1) as f64).unwrap().cdf(stat)
-}
 
 /// Mean and standard error of the mean of `xs`.
 pub fn mean_and_se(xs: &[f64]) -> (f64, f64) {
@@ -71,4 +42,36 @@ pub fn temp_dir(test: &str) -> std::path::PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// A seeded random stream for the tests' own random choices (xoshiro256++, portable).
+pub struct Rng(rand::rngs::Xoshiro256PlusPlus);
+
+impl Rng {
+    /// The stream for `(seed, stream)`.
+    pub fn new(seed: u64, stream: u64) -> Self {
+        use rand::SeedableRng;
+        Self(rand::rngs::Xoshiro256PlusPlus::seed_from_u64(
+            seed ^ stream.wrapping_mul(0x9e37_79b9_7f4a_7c15),
+        ))
+    }
+
+    /// Uniform in [0, 1).
+    pub fn next_f32(&mut self) -> f32 {
+        use rand::Rng as _;
+        (self.0.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    /// Uniform integer in [0, n).
+    pub fn below(&mut self, n: usize) -> usize {
+        ((self.next_f32() as f64) * n as f64) as usize % n.max(1)
+    }
+
+    /// A uniformly distributed unit vector.
+    pub fn unit_vector(&mut self) -> haze::glam::Vec3 {
+        let z = 1.0 - 2.0 * self.next_f32();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * std::f32::consts::PI * self.next_f32();
+        haze::glam::Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
 }

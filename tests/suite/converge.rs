@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 
 fn small_cornell() -> Scene {
     let mut scene = Scene::load(scene_path("cornell-box.toml")).unwrap();
-    scene.camera.resolution = [16, 16];
+    scene.set_resolution([16, 16]).unwrap();
     scene
 }
 
@@ -173,7 +173,7 @@ fn clashing_seeds_and_sizes_are_refused() {
         .to_string();
     assert!(err.contains("seed 3"), "{err}");
     let mut big = small_cornell();
-    big.camera.resolution = [20, 16];
+    big.set_resolution([20, 16]).unwrap();
     let ok = vec![Series { label: "p".into(), settings: path_settings(10, 1) }];
     let err = converge::run(&big, &ok, &reference, &plan, &mut |_, _, _| {}, &stop)
         .unwrap_err()

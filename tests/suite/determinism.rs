@@ -42,7 +42,7 @@ fn media_images_are_bit_identical_across_thread_counts() {
         [("volumetric-caustic.toml", [200, 113]), ("spotlight-fog.toml", [160, 100])]
     {
         let mut scene = Scene::load(scene_path(name)).unwrap();
-        scene.camera.resolution = size;
+        scene.set_resolution(size).unwrap();
         let beam = scene.settings.clone();
         let mut thinned = beam.clone();
         thinned.beam_cell_budget = Some(4);

@@ -2,17 +2,11 @@
 //! media, agreement of the beam and point estimates, and the radius schedules they use.
 
 use crate::common::{assert_agrees, mean_and_se, t_critical};
-use glam::Vec3;
-use haze::estimate::kernel::Kernel;
-use haze::estimate::radius::radius;
-use haze::medium::Medium;
-use haze::medium::homogeneous::Homogeneous;
-use haze::medium::phase::HenyeyGreenstein;
+use haze::glam::Vec3;
 use haze::progress::Silent;
-use haze::scene::camera::{Camera, Projection};
-use haze::scene::material::Material;
-use haze::scene::{Geometry, LightDesc, MediumInterface, SceneBuilder, shape};
-use haze::settings::{Integrator, RenderSettings, VolumeEstimate};
+use haze::scene::{CameraDesc, LightDesc, Material, MediumDesc, SceneBuilder, ShapeDesc};
+use haze::schedule::radius;
+use haze::settings::{Integrator, Kernel, RenderSettings, VolumeEstimate};
 use haze::{Image, Scene};
 use std::sync::atomic::AtomicBool;
 
@@ -20,8 +14,8 @@ fn render(scene: &Scene, settings: &RenderSettings) -> Image {
     haze::render(scene, settings, &mut Silent, &AtomicBool::new(false)).unwrap()
 }
 
-pub(crate) fn homogeneous(sigma_a: Vec3, sigma_s: Vec3, g: f32) -> Medium {
-    Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase: HenyeyGreenstein { g } })
+pub(crate) fn homogeneous(sigma_a: Vec3, sigma_s: Vec3, g: f32) -> MediumDesc {
+    MediumDesc::homogeneous(sigma_a, sigma_s).g(g)
 }
 
 /// Half-angle of the furnace camera's view cone (diagonal), for the bias bound.
@@ -29,24 +23,18 @@ pub(crate) const FURNACE_FOV_DEG: f32 = 20.0;
 
 /// A closed cube [-1, 1]³ of black, inward-facing walls emitting radiance `le`, filled with
 /// `medium`; the camera sits at the centre, in the medium, looking at the −z wall.
-pub(crate) fn furnace(le: Vec3, medium: Medium) -> Scene {
+pub(crate) fn furnace(le: Vec3, medium: MediumDesc) -> Scene {
     furnace_with_light(le, medium, None)
 }
 
 /// [`furnace`] with an extra light inside the medium.
-pub(crate) fn furnace_with_light(le: Vec3, medium: Medium, light: Option<LightDesc>) -> Scene {
-    let tan = (FURNACE_FOV_DEG.to_radians() / 2.0).tan();
-    let camera = Camera::new(
-        Projection::Perspective { tan_half_fov: tan, lens_radius: 0.0, focus_distance: 1.0 },
-        Vec3::ZERO,
-        -Vec3::Z,
-        Vec3::Y,
-        [8, 8],
-    );
+pub(crate) fn furnace_with_light(le: Vec3, medium: MediumDesc, light: Option<LightDesc>) -> Scene {
+    let camera = CameraDesc::perspective(Vec3::ZERO, -Vec3::Z, FURNACE_FOV_DEG)
+        .resolution(8, 8)
+        .medium("fog");
     let mut b = SceneBuilder::new(camera);
-    let fog = b.medium("fog", medium).unwrap();
-    b.camera_medium(Some(fog)).unwrap();
-    let black = b.material("black", Material::Diffuse { albedo: Vec3::ZERO }).unwrap();
+    b.medium("fog", medium).unwrap();
+    b.material("black", Material::diffuse(0.0)).unwrap();
     // Rotations taking the rectangle's +z normal to each inward direction.
     let walls = [
         (Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0)), // back wall z = -1, normal +z
@@ -57,13 +45,18 @@ pub(crate) fn furnace_with_light(le: Vec3, medium: Medium, light: Option<LightDe
         (Vec3::new(90.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)), // ceiling y = +1, normal -y
     ];
     for (rotate, at) in walls {
-        let mesh = shape::rectangle(2.0, 2.0).transformed(&shape::affine(Vec3::ONE, rotate, at));
-        let inside = MediumInterface { interior: None, exterior: Some(fog) };
-        let emission = (le.max_element() > 0.0).then_some(le);
-        b.shape_with_media(Geometry::Mesh(mesh), black, emission, Some(inside)).unwrap();
+        let mut wall = ShapeDesc::rectangle(2.0, 2.0)
+            .material("black")
+            .exterior("fog")
+            .rotate(rotate)
+            .translate(at);
+        if le.max_element() > 0.0 {
+            wall = wall.emission(le);
+        }
+        b.shape(wall).unwrap();
     }
     if let Some(light) = light {
-        b.light_in(light, Some(fog)).unwrap();
+        b.light(light.medium("fog")).unwrap();
     }
     b.build().unwrap()
 }
@@ -156,31 +149,20 @@ fn beer_lambert_slab_with_chromatic_absorption() {
     let thickness = 1.2f32;
     let sigma_a = Vec3::new(0.3, 1.0, 2.5);
     let le = Vec3::new(2.0, 3.0, 4.0);
-    let camera = Camera::new(
-        Projection::Orthographic { height: 0.5 },
-        Vec3::new(0.0, 0.0, 3.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        [6, 6],
-    );
+    let camera = CameraDesc::orthographic([0.0, 0.0, 3.0], Vec3::ZERO, 0.5).resolution(6, 6);
     let mut b = SceneBuilder::new(camera);
     let slab = b.medium("slab", homogeneous(sigma_a, Vec3::ZERO, 0.0)).unwrap();
     let boundary = b.material("boundary", Material::Interface).unwrap();
-    let black = b.material("black", Material::Diffuse { albedo: Vec3::ZERO }).unwrap();
-    let cube = shape::cuboid(Vec3::new(4.0, 4.0, thickness));
-    let inside = MediumInterface { interior: Some(slab), exterior: None };
-    b.shape_with_media(Geometry::Mesh(cube), boundary, None, Some(inside)).unwrap();
-    let emitter = shape::rectangle(4.0, 4.0).transformed(&shape::affine(
-        Vec3::ONE,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, -1.0),
-    ));
-    b.shape(Geometry::Mesh(emitter), black, Some(le)).unwrap();
+    let black = b.material("black", Material::diffuse(0.0)).unwrap();
+    b.shape(ShapeDesc::cuboid([4.0, 4.0, thickness]).material(boundary).interior(slab)).unwrap();
+    let emitter = ShapeDesc::rectangle(4.0, 4.0).material(black).emission(le);
+    b.shape(emitter.translate([0.0, 0.0, -1.0])).unwrap();
     let scene = b.build().unwrap();
     let expected = le * (-sigma_a * thickness).exp();
 
     let beam = render(&scene, &volume_settings(VolumeEstimate::Beam, 0.02, 1));
-    let eps = haze::math::ray_offset(Vec3::new(0.25, 0.25, thickness / 2.0));
+    // The ray offset at the top face: RAY_EPSILON · (1 + max |p|) with |p| ≤ 0.6.
+    let eps = haze::RAY_EPSILON * (1.0 + thickness / 2.0);
     for p in &beam.pixels {
         for c in 0..3 {
             let tol = (sigma_a[c] * eps).exp() - 1.0 + 1e-6; // + f32 rounding of exp
@@ -216,18 +198,12 @@ fn beer_lambert_slab_with_chromatic_absorption() {
 /// twice that.
 #[test]
 fn beam_and_point_estimates_agree() {
-    let camera = Camera::new(
-        Projection::Perspective { tan_half_fov: 0.4, lens_radius: 0.0, focus_distance: 1.0 },
-        Vec3::ZERO,
-        -Vec3::Z,
-        Vec3::Y,
-        [12, 12],
-    );
+    let fov = 2.0 * 0.4f32.atan().to_degrees();
+    let camera =
+        CameraDesc::perspective(Vec3::ZERO, -Vec3::Z, fov).resolution(12, 12).medium("fog");
     let mut b = SceneBuilder::new(camera);
     let fog = b.medium("fog", homogeneous(Vec3::splat(0.2), Vec3::splat(0.8), 0.4)).unwrap();
-    b.camera_medium(Some(fog)).unwrap();
-    let light = LightDesc::Point { position: Vec3::new(0.0, 0.0, 1.0), power: Vec3::splat(50.0) };
-    b.light_in(light, Some(fog)).unwrap();
+    b.light(LightDesc::point([0.0, 0.0, 1.0], 50.0).medium(fog)).unwrap();
     let scene = b.build().unwrap();
     let r = 0.05;
     let means = |estimate| -> Vec<f64> {

@@ -14,8 +14,15 @@ fn exr_round_trips_pixels_and_metadata() {
     let image = haze::render(&scene, &settings, &mut Silent, &AtomicBool::new(false)).unwrap();
     let dir = temp_dir("exr");
     let exr_path = dir.join("out.exr");
-    let png = image.write(&exr_path, 1.0).unwrap();
-    assert!(png.exists() && png.extension().unwrap() == "png");
+    let written = image.write(&exr_path, 1.0).unwrap();
+    assert_eq!(written, vec![exr_path.clone(), dir.join("out.png")]);
+    assert!(written.iter().all(|p| p.is_file()));
+    // By extension: a .png alone; anything else is refused before writing.
+    assert_eq!(image.write(&dir.join("alone.png"), 1.0).unwrap(), vec![dir.join("alone.png")]);
+    assert!(!dir.join("alone.exr").exists());
+    let err = image.write(&dir.join("x.tiff"), 1.0).unwrap_err().to_string();
+    assert!(err.contains("x.tiff") && err.contains(".exr"), "{err}");
+    assert!(!dir.join("x.tiff").exists());
 
     use exr::prelude::*;
     let w = image.width as usize;

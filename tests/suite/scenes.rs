@@ -19,8 +19,8 @@ fn bundled_scenes_render_finite_images() {
     assert!(names.len() >= 5, "expected the bundled scenes in {}", dir.display());
     for path in names {
         let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-        let [w, h] = scene.camera.resolution;
-        scene.camera.resolution = [(w / 8).max(1), (h / 8).max(1)];
+        let [w, h] = scene.resolution();
+        scene.set_resolution([(w / 8).max(1), (h / 8).max(1)]).unwrap();
         for estimate in [VolumeEstimate::Beam, VolumeEstimate::Point] {
             let mut s = scene.settings.clone();
             s.iterations = Some(2);

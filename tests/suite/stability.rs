@@ -6,10 +6,10 @@
 
 use crate::common::{assert_agrees, mean_and_se, t_critical};
 use crate::media::{FURNACE_FOV_DEG, furnace, furnace_with_light, homogeneous, volume_settings};
-use glam::Vec3;
-use haze::estimate::radius::radius;
+use haze::glam::Vec3;
 use haze::progress::{Silent, Status};
 use haze::scene::LightDesc;
+use haze::schedule::radius;
 use haze::settings::{Integrator, RenderSettings, VolumeEstimate};
 use haze::{Image, Scene};
 use std::sync::atomic::AtomicBool;
@@ -116,17 +116,20 @@ fn assert_two_agree(what: &str, xs: &[f64], ys: &[f64], bias: f64) {
 /// wall of [−1, 1]³ (which emits L_e = 1), 0 on absorption. Scores are 0 or 1 — no weights, no
 /// heavy tails — so batch means are nearly normal. Returns 16 batch means.
 fn analog_walk(scene: &Scene, sigma_t: f32, albedo: f32, walks: usize, seed: u64) -> Vec<f64> {
-    use haze::rng::{Purpose, Sampler};
-    let [w, h] = scene.camera.resolution;
+    use crate::common::Rng;
+    let [w, h] = scene.resolution();
+    // The furnace camera: a pinhole at the origin looking down −z, up +y.
+    let tan = (FURNACE_FOV_DEG.to_radians() / 2.0).tan();
     let batch = walks / 16;
     (0..16)
         .map(|b| {
-            let mut s = Sampler::new(seed, Purpose::Other, b, 0);
+            let mut s = Rng::new(seed, b);
             let mut hits = 0usize;
             for _ in 0..batch {
-                let px = glam::Vec2::new(s.next_f32() * w as f32, s.next_f32() * h as f32);
-                let ray = scene.camera.generate_ray(px, s.next_2d());
-                let (mut o, mut d) = (ray.o, ray.d);
+                let (sx, sy) = (2.0 * s.next_f32() - 1.0, 1.0 - 2.0 * s.next_f32());
+                let aspect = w as f32 / h as f32;
+                let mut o = Vec3::ZERO;
+                let mut d = Vec3::new(sx * tan * aspect, sy * tan, -1.0).normalize();
                 loop {
                     let t = -(1.0 - s.next_f32()).ln() / sigma_t;
                     o += d * t;
@@ -137,7 +140,7 @@ fn analog_walk(scene: &Scene, sigma_t: f32, albedo: f32, walks: usize, seed: u64
                     if s.next_f32() >= albedo {
                         break;
                     }
-                    d = haze::math::sample_uniform_sphere(s.next_2d());
+                    d = s.unit_vector();
                 }
             }
             hits as f64 / batch as f64
@@ -201,7 +204,7 @@ fn ten_thousand_iterations_without_stall_or_drift() {
     const N: u64 = 10_000;
     let le = 1.0;
     let mut scene = furnace(Vec3::splat(le), homogeneous(Vec3::ZERO, Vec3::splat(1.0), 0.0));
-    scene.camera.resolution = [4, 4];
+    scene.set_resolution([4, 4]).unwrap();
     let mut s = volume_settings(VolumeEstimate::Beam, 0.05, 7);
     s.iterations = Some(N);
     s.photons = 100;
@@ -237,7 +240,7 @@ fn ten_thousand_iterations_without_stall_or_drift() {
 #[test]
 fn thinning_dense_photons_keeps_the_mean() {
     let medium = homogeneous(Vec3::splat(0.1), Vec3::splat(1.5), 0.3);
-    let light = LightDesc::Point { position: Vec3::new(0.1, -0.1, -0.6), power: Vec3::splat(20.0) };
+    let light = LightDesc::point([0.1, -0.1, -0.6], 20.0);
     let scene = furnace_with_light(Vec3::ZERO, medium, Some(light));
     let diffs: Vec<f64> = (0..16)
         .map(|seed| {
@@ -257,40 +260,21 @@ fn thinning_dense_photons_keeps_the_mean() {
 /// the light for every point within ~10⁴ offsets of such an interface.
 #[test]
 fn pass_through_interfaces_near_an_area_light_do_not_block_it() {
-    use haze::scene::camera::{Camera, Projection};
-    use haze::scene::material::Material;
-    use haze::scene::{Geometry, SceneBuilder, shape};
+    use haze::scene::{CameraDesc, Material, SceneBuilder, ShapeDesc};
     let build = |with_box: bool| {
-        let camera = Camera::new(
-            Projection::Perspective { tan_half_fov: 0.5, lens_radius: 0.0, focus_distance: 1.0 },
-            Vec3::new(0.0, 0.5, 2.5),
-            Vec3::new(0.0, 0.3, 0.0),
-            Vec3::Y,
-            [8, 8],
-        );
+        let fov = 2.0 * 0.5f32.atan().to_degrees();
+        let camera =
+            CameraDesc::perspective([0.0, 0.5, 2.5], [0.0, 0.3, 0.0], fov).resolution(8, 8);
         let mut b = SceneBuilder::new(camera);
-        let white = b.material("white", Material::Diffuse { albedo: Vec3::splat(0.5) }).unwrap();
-        let floor = shape::rectangle(4.0, 4.0).transformed(&shape::affine(
-            Vec3::ONE,
-            Vec3::new(-90.0, 0.0, 0.0),
-            Vec3::ZERO,
-        ));
-        b.shape(Geometry::Mesh(floor), white, None).unwrap();
-        let lamp = shape::rectangle(0.5, 0.5).transformed(&shape::affine(
-            Vec3::ONE,
-            Vec3::new(90.0, 0.0, 0.0),
-            Vec3::new(0.0, 1.0, 0.0),
-        ));
-        b.shape(Geometry::Mesh(lamp), white, Some(Vec3::splat(5.0))).unwrap();
+        let white = b.material("white", Material::diffuse(0.5)).unwrap();
+        b.shape(ShapeDesc::rectangle(4.0, 4.0).material(white).rotate([-90.0, 0.0, 0.0])).unwrap();
+        let lamp = ShapeDesc::rectangle(0.5, 0.5).material(white).emission(5.0);
+        b.shape(lamp.rotate([90.0, 0.0, 0.0]).translate([0.0, 1.0, 0.0])).unwrap();
         if with_box {
             let glass = b.material("boundary", Material::Interface).unwrap();
             // Top face 0.02 below the lamp: 2·10³ ray offsets.
-            let cube = shape::cuboid(Vec3::new(1.5, 0.78, 1.5)).transformed(&shape::affine(
-                Vec3::ONE,
-                Vec3::ZERO,
-                Vec3::new(0.0, 0.59, 0.0),
-            ));
-            b.shape(Geometry::Mesh(cube), glass, None).unwrap();
+            let cube = ShapeDesc::cuboid([1.5, 0.78, 1.5]).material(glass);
+            b.shape(cube.translate([0.0, 0.59, 0.0])).unwrap();
         }
         b.build().unwrap()
     };

@@ -61,10 +61,10 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
     if timed == 0 {
         bail!("--iterations must be at least 2 for a benchmark (the first is a warm-up)");
     }
-    let media = !scene.media.is_empty() && settings.integrator == Integrator::PhotonMapping;
+    let media = scene.has_media() && settings.integrator == Integrator::PhotonMapping;
     let t = &totals.times;
     let per_it = |x: f64| x / timed as f64;
-    let [w, h] = scene.camera.resolution;
+    let [w, h] = scene.resolution();
     let paths = (timed * settings.photons) as f64;
     let pixels = (timed * w as u64 * h as u64) as f64;
     let photon_pass = t.photon_trace + t.surface_map + t.volume_map;

@@ -120,7 +120,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<()> {
     bar.finish_and_clear();
     let summaries = converge::summarize(&scene, &series, &samples, args.runs);
     let title = args.title.clone().unwrap_or_else(|| {
-        let [w, h] = scene.camera.resolution;
+        let [w, h] = scene.resolution();
         format!("{stem} ({w}x{h}), {} threads", pool.current_num_threads())
     });
     let chart = converge::chart(&title, &summaries);

@@ -76,7 +76,7 @@ impl Overrides {
     fn load_scene(&self, path: &Path) -> Result<Scene> {
         let mut scene = Scene::load(path)?;
         if let Some(r) = self.resolution {
-            scene.camera.resolution = r;
+            scene.set_resolution(r).context("--resolution")?;
         }
         Ok(scene)
     }

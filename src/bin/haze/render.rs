@@ -16,7 +16,8 @@ use std::time::Instant;
 pub(crate) struct RenderArgs {
     /// Scene file (TOML; see docs/scene-format.md).
     scene: PathBuf,
-    /// Output OpenEXR file; the PNG preview is written beside it [default: SCENE-NAME.exr].
+    /// Output file: .exr writes OpenEXR with a PNG preview beside it, .png the preview alone
+    /// [default: SCENE-NAME.exr].
     #[arg(short = 'o', long, value_name = "FILE")]
     output: Option<PathBuf>,
     #[command(flatten)]
@@ -43,8 +44,14 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         bail!("--exposure must be a positive number, got {}", args.exposure);
     }
     let output = default_output(&args.scene, args.output.clone(), "exr");
-    if output.extension().and_then(|e| e.to_str()) != Some("exr") {
-        bail!("--output {}: the file name must end in .exr", output.display());
+    match output.extension().and_then(|e| e.to_str()) {
+        Some("exr") => {}
+        Some("png") if !args.reference => {}
+        _ if args.reference => bail!("--output {}: a reference must end in .exr", output.display()),
+        _ => bail!(
+            "--output {}: the file name must end in .exr (OpenEXR plus a PNG preview) or .png",
+            output.display()
+        ),
     }
     check_output_dir("--output", &output)?;
     let pool = thread_pool(args.overrides.threads)?;
@@ -71,7 +78,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
     if image.info.iterations == 0 {
         bail!("stopped before the first iteration finished; nothing written");
     }
-    let png = if args.reference {
+    let written = if args.reference {
         image.write_reference(&output, args.exposure)?
     } else {
         image.write(&output, args.exposure)?
@@ -84,12 +91,12 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         }
         Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),
     };
+    let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     eprintln!(
-        "{} iterations{interrupted}, {work}, {:.1} s: wrote {} and {}",
+        "{} iterations{interrupted}, {work}, {:.1} s: wrote {}",
         i.iterations,
         i.elapsed,
-        output.display(),
-        png.display()
+        files.join(" and ")
     );
     if i.nonfinite_samples > 0 {
         eprintln!("warning: {} non-finite samples were replaced by black", i.nonfinite_samples);

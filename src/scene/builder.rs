@@ -1,0 +1,542 @@
+//! [`SceneBuilder`]: scenes built in code, from the descriptions of [`super::describe`]. The scene
+//! loader goes through it too, so a scene built in code gets exactly the checks a scene file gets,
+//! with errors naming the item as a key (`shapes[2].emission`, `camera.fov`).
+
+use super::camera::{Camera, CameraDesc};
+use super::describe::{
+    GeometryDesc, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc, MediumId, MediumRef,
+    ShapeDesc, Transform,
+};
+use super::light::{self, Emitter, Light};
+use super::material::Material;
+use super::shape::{self, Mesh};
+use super::{MAX_COORDINATE, MediumInterface, Scene, Shape};
+use crate::accel::{Accel, Primitive};
+use crate::error::{Error, Result};
+use crate::math::Rgb;
+use crate::medium::Medium;
+use crate::medium::grid::DensityGrid;
+use crate::medium::homogeneous::Homogeneous;
+use crate::medium::phase::HenyeyGreenstein;
+use crate::medium::vdb::VdbMedium;
+use crate::settings::RenderSettings;
+use glam::Vec3;
+use std::path::PathBuf;
+
+/// Most subdivisions of a tessellated sphere (327,680 triangles).
+pub const MAX_TESSELLATION: u32 = 7;
+
+/// Geometry after its transform: what the BVH holds.
+#[derive(Clone, Debug)]
+enum Geometry {
+    Mesh(Mesh),
+    Sphere { center: Vec3, radius: f32 },
+}
+
+/// Builds a [`Scene`] in code. Materials and media are named (shapes and lights refer to them by
+/// name or by the ids `material` and `medium` return); every call checks what it is given, and
+/// [`Self::build`] checks the camera and the whole.
+///
+/// ```
+/// use haze::scene::{CameraDesc, LightDesc, Material, SceneBuilder, ShapeDesc};
+///
+/// let mut b = SceneBuilder::new(CameraDesc::perspective([0.0, 1.0, 3.0], [0.0, 0.0, 0.0], 50.0));
+/// let grey = b.material("grey", Material::diffuse(0.5))?;
+/// b.shape(ShapeDesc::rectangle(4.0, 4.0).material(grey).rotate([-90.0, 0.0, 0.0]))?;
+/// b.light(LightDesc::point([0.0, 2.0, 0.0], 30.0))?;
+/// let scene = b.build()?;
+/// assert_eq!(scene.resolution(), [512, 512]);
+/// # Ok::<(), haze::Error>(())
+/// ```
+pub struct SceneBuilder {
+    camera: CameraDesc,
+    settings: RenderSettings,
+    materials: Vec<(String, Material)>,
+    media: Vec<(String, Medium)>,
+    shapes: Vec<(Shape, Geometry)>,
+    lights: Vec<(LightKind, Option<u32>)>,
+    source: Option<PathBuf>,
+}
+
+pub(super) fn invalid(key: String, message: impl Into<String>) -> Error {
+    Error::Invalid { path: PathBuf::new(), line: None, key, message: message.into() }
+}
+
+fn check_color(key: String, c: Rgb, max: Option<f32>) -> Result<()> {
+    if !c.is_finite() {
+        return Err(invalid(key, format!("must be finite, got {c}")));
+    }
+    if c.min_element() < 0.0 {
+        return Err(invalid(key, format!("must not be negative, got {c}")));
+    }
+    if let Some(m) = max {
+        if c.max_element() > m {
+            return Err(invalid(key, format!("must not exceed {m}, got {c}")));
+        }
+    }
+    Ok(())
+}
+
+fn check_point(key: String, p: Vec3) -> Result<()> {
+    if !p.is_finite() {
+        return Err(invalid(key, format!("must be finite, got {p}")));
+    }
+    if p.abs().max_element() > MAX_COORDINATE {
+        return Err(invalid(
+            key,
+            format!("{p} lies outside haze's working range of ±{MAX_COORDINATE} scene units"),
+        ));
+    }
+    Ok(())
+}
+
+fn check_transform(t: &Transform, key: &str) -> Result<()> {
+    for (k, v) in [("scale", t.scale), ("rotate", t.rotate), ("translate", t.translate)] {
+        if !v.is_finite() {
+            return Err(invalid(
+                format!("{key}.transform.{k}"),
+                format!("must be finite, got {v}"),
+            ));
+        }
+    }
+    if t.scale.abs().min_element() == 0.0 {
+        return Err(invalid(format!("{key}.transform.scale"), "must not be zero"));
+    }
+    Ok(())
+}
+
+impl SceneBuilder {
+    /// Starts a scene seen by `camera` (checked by [`Self::build`]), with default settings.
+    pub fn new(camera: CameraDesc) -> Self {
+        Self {
+            camera,
+            settings: RenderSettings::default(),
+            materials: Vec::new(),
+            media: Vec::new(),
+            shapes: Vec::new(),
+            lights: Vec::new(),
+            source: None,
+        }
+    }
+
+    /// Checks the camera now (the loader reports a bad camera before anything else).
+    pub(crate) fn check_camera(&self) -> Result<()> {
+        Camera::from_desc(&self.camera).map(|_| ()).map_err(|(k, m)| invalid(k, m))
+    }
+
+    /// Sets the render settings the scene carries (checked).
+    pub fn settings(&mut self, settings: RenderSettings) -> Result<()> {
+        settings.validate().map_err(|e| invalid(format!("render.{}", e.key), e.message))?;
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// Records the scene file this scene came from.
+    pub(crate) fn source(&mut self, path: PathBuf) {
+        self.source = Some(path);
+    }
+
+    /// Adds a named material; returns its id.
+    pub fn material(&mut self, name: &str, m: Material) -> Result<MaterialId> {
+        let key = |k: &str| format!("materials.{name}.{k}");
+        if self.materials.iter().any(|(n, _)| n == name) {
+            return Err(invalid(format!("materials.{name}"), "defined twice"));
+        }
+        match &m {
+            Material::Diffuse { albedo } => check_color(key("albedo"), *albedo, Some(1.0))?,
+            Material::Mirror { reflectance } => {
+                check_color(key("reflectance"), *reflectance, Some(1.0))?
+            }
+            Material::Dielectric { ior } => {
+                if !(ior.is_finite() && *ior > 0.0) {
+                    return Err(invalid(key("ior"), format!("must be positive, got {ior}")));
+                }
+            }
+            Material::Interface => {}
+        }
+        self.materials.push((name.to_string(), m));
+        Ok(MaterialId(self.materials.len() as u32 - 1))
+    }
+
+    /// Adds a named participating medium (reading a grid medium's OpenVDB file); returns its id.
+    pub fn medium(&mut self, name: &str, desc: MediumDesc) -> Result<MediumId> {
+        if self.media.iter().any(|(n, _)| n == name) {
+            return Err(invalid(format!("media.{name}"), "defined twice"));
+        }
+        let key = |k: &str| format!("media.{name}.{k}");
+        let (sigma_a, sigma_s, g) = match &desc {
+            MediumDesc::Homogeneous { sigma_a, sigma_s, g }
+            | MediumDesc::Vdb { sigma_a, sigma_s, g, .. } => (*sigma_a, *sigma_s, *g),
+        };
+        check_color(key("sigma_a"), sigma_a, None)?;
+        check_color(key("sigma_s"), sigma_s, None)?;
+        if !(g > -1.0 && g < 1.0) {
+            return Err(invalid(key("g"), format!("must lie strictly between -1 and 1, got {g}")));
+        }
+        let phase = HenyeyGreenstein { g };
+        let medium = match desc {
+            MediumDesc::Homogeneous { .. } => {
+                Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase })
+            }
+            MediumDesc::Vdb { file, grid, density_scale, transform, .. } => {
+                let t = sigma_a + sigma_s;
+                // Equal up to f32 rounding (albedo · σ_t + (1 − albedo) · σ_t need not sum
+                // exactly).
+                if t.max_element() - t.min_element() > 1e-5 * t.max_element() {
+                    return Err(invalid(
+                        key("sigma_s"),
+                        format!(
+                            "a grid medium needs the same extinction σ_a + σ_s in every channel \
+                             (delta tracking), got {t}; colour the albedo instead"
+                        ),
+                    ));
+                }
+                if !(density_scale.is_finite() && density_scale >= 0.0) {
+                    return Err(invalid(
+                        key("density_scale"),
+                        format!("must be finite and non-negative, got {density_scale}"),
+                    ));
+                }
+                check_transform(&transform, &format!("media.{name}"))?;
+                let grid = DensityGrid::load(&file, &grid)
+                    .map_err(|e| invalid(key("file"), e.to_string()))?;
+                let to_scene = transform.matrix();
+                Medium::Vdb(Box::new(VdbMedium::new(
+                    grid,
+                    to_scene,
+                    density_scale,
+                    sigma_a,
+                    sigma_s,
+                    phase,
+                )))
+            }
+        };
+        self.media.push((name.to_string(), medium));
+        Ok(MediumId(self.media.len() as u32 - 1))
+    }
+
+    fn medium_id(&self, key: String, m: &MediumRef) -> Result<MediumId> {
+        match m {
+            MediumRef::Id(id) if (id.0 as usize) < self.media.len() => Ok(*id),
+            MediumRef::Id(_) => Err(invalid(key, "no such medium")),
+            MediumRef::Name(n) => match self.media.iter().position(|(name, _)| name == n) {
+                Some(i) => Ok(MediumId(i as u32)),
+                None => {
+                    let known: Vec<&String> = self.media.iter().map(|(n, _)| n).collect();
+                    Err(invalid(key, format!("undefined medium `{n}` (defined: {known:?})")))
+                }
+            },
+        }
+    }
+
+    fn material_id(&self, key: String, m: &MaterialRef) -> Result<MaterialId> {
+        match m {
+            MaterialRef::Id(id) if (id.0 as usize) < self.materials.len() => Ok(*id),
+            MaterialRef::Id(_) => Err(invalid(key, "no such material")),
+            MaterialRef::Name(n) => match self.materials.iter().position(|(name, _)| name == n) {
+                Some(i) => Ok(MaterialId(i as u32)),
+                None => {
+                    let known: Vec<&String> = self.materials.iter().map(|(n, _)| n).collect();
+                    Err(invalid(key, format!("undefined material `{n}` (defined: {known:?})")))
+                }
+            },
+        }
+    }
+
+    /// Adds a shape (reading an OBJ file's meshes).
+    pub fn shape(&mut self, desc: ShapeDesc) -> Result<()> {
+        let label = format!("shapes[{}]", self.shapes.len());
+        let material = match &desc.material {
+            Some(m) => self.material_id(format!("{label}.material"), m)?.0,
+            None => {
+                return Err(invalid(format!("{label}.material"), "every shape needs a material"));
+            }
+        };
+        let side = |k: &str, m: &Option<MediumRef>| -> Result<Option<u32>> {
+            m.as_ref().map(|m| self.medium_id(format!("{label}.{k}"), m).map(|id| id.0)).transpose()
+        };
+        let (interior, exterior) =
+            (side("interior", &desc.interior)?, side("exterior", &desc.exterior)?);
+        let media = (desc.interior.is_some() || desc.exterior.is_some())
+            .then_some(MediumInterface { interior, exterior });
+        if let Some(e) = desc.emission {
+            check_color(format!("{label}.emission"), e, None)?;
+        }
+        check_transform(&desc.transform, &label)?;
+        let geometry = geometry(&desc.geometry, &desc.transform, &label)?;
+        check_geometry(&geometry, &label)?;
+        let shape = Shape { label, material, emission: desc.emission, media };
+        self.shapes.push((shape, geometry));
+        Ok(())
+    }
+
+    /// Adds a light.
+    pub fn light(&mut self, desc: LightDesc) -> Result<()> {
+        let key = |k: &str| format!("lights[{}].{k}", self.lights.len());
+        let medium = match &desc.medium {
+            Some(m) => Some(self.medium_id(key("medium"), m)?.0),
+            None => None,
+        };
+        match &desc.kind {
+            LightKind::Point { position, power } => {
+                check_point(key("position"), *position)?;
+                check_color(key("power"), *power, None)?;
+            }
+            LightKind::Spot { position, look_at, power, cone_angle, falloff_start } => {
+                check_point(key("position"), *position)?;
+                check_point(key("look_at"), *look_at)?;
+                if (*look_at - *position).length_squared() == 0.0 {
+                    return Err(invalid(key("look_at"), "must differ from position"));
+                }
+                check_color(key("power"), *power, None)?;
+                if !(*cone_angle > 0.0 && *cone_angle < 180.0) {
+                    return Err(invalid(
+                        key("cone_angle"),
+                        format!("must lie in (0, 180) degrees, got {cone_angle}"),
+                    ));
+                }
+                let start = falloff_start.unwrap_or(*cone_angle);
+                if !(start >= 0.0 && start <= *cone_angle) {
+                    return Err(invalid(
+                        key("falloff_start"),
+                        format!("must lie in [0, cone_angle = {cone_angle}], got {start}"),
+                    ));
+                }
+            }
+            LightKind::Directional { direction, irradiance } => {
+                check_point(key("direction"), *direction)?;
+                if direction.length_squared() == 0.0 {
+                    return Err(invalid(key("direction"), "must not be zero"));
+                }
+                check_color(key("irradiance"), *irradiance, None)?;
+            }
+        }
+        self.lights.push((desc.kind, medium));
+        Ok(())
+    }
+
+    /// Finishes the scene: checks the camera, builds the BVH and the lights.
+    pub fn build(self) -> Result<Scene> {
+        let camera = Camera::from_desc(&self.camera).map_err(|(k, m)| invalid(k, m))?;
+        let camera_medium = match &self.camera.medium {
+            Some(m) => Some(self.medium_id("camera.medium".into(), m)?.0),
+            None => None,
+        };
+        let mut prims = Vec::new();
+        let mut lights = Vec::new();
+        let mut light_media = Vec::new();
+        for (i, (shape, geometry)) in self.shapes.iter().enumerate() {
+            let tag = i as u32;
+            match geometry {
+                Geometry::Mesh(mesh) => {
+                    for tri in &mesh.triangles {
+                        let p = tri.map(|v| mesh.positions[v as usize]);
+                        // Degenerate triangles have no normal and can never be hit: drop them.
+                        if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
+                            continue;
+                        }
+                        let normals = mesh.normals.as_ref().map(|n| tri.map(|v| n[v as usize]));
+                        prims.push(Primitive::Triangle { p, normals, tag });
+                    }
+                }
+                Geometry::Sphere { center, radius } => {
+                    prims.push(Primitive::Sphere { center: *center, radius: *radius, tag });
+                }
+            }
+            if let Some(radiance) = shape.emission.filter(|e| e.max_element() > 0.0) {
+                let emitter = match geometry {
+                    Geometry::Mesh(mesh) => {
+                        let triangles: Vec<[Vec3; 3]> = mesh
+                            .triangle_vertices()
+                            .filter(|[a, b, c]| (*b - *a).cross(*c - *a).length() > 0.0)
+                            .collect();
+                        let mut total = 0.0;
+                        let cdf = triangles
+                            .iter()
+                            .map(|[a, b, c]| {
+                                total += 0.5 * (*b - *a).cross(*c - *a).length();
+                                total
+                            })
+                            .collect();
+                        if triangles.is_empty() {
+                            return Err(invalid(
+                                format!("{}.emission", shape.label),
+                                "the emitting mesh has no area",
+                            ));
+                        }
+                        Emitter::Triangles { triangles, cdf }
+                    }
+                    Geometry::Sphere { center, radius } => {
+                        Emitter::Sphere { center: *center, radius: *radius }
+                    }
+                };
+                lights.push(Light::Area { shape: tag, radiance, emitter });
+                light_media.push(shape.media.and_then(|m| m.exterior));
+            }
+        }
+        // obvhs asserts on some degenerate inputs; contain that rather than crash.
+        let accel = std::panic::catch_unwind(|| Accel::build(&prims)).map_err(|_| {
+            invalid("shapes".into(), "the geometry could not be organised into a BVH (degenerate?)")
+        })?;
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for p in &prims {
+            let b = obvhs::Boundable::aabb(p);
+            lo = lo.min(b.min.into());
+            hi = hi.max(b.max.into());
+        }
+        for (l, _) in &self.lights {
+            if let LightKind::Point { position, .. } | LightKind::Spot { position, .. } = l {
+                lo = lo.min(*position);
+                hi = hi.max(*position);
+            }
+        }
+        if !lo.is_finite() {
+            lo = Vec3::splat(-1.0);
+            hi = Vec3::splat(1.0);
+        }
+        let (center, radius) = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3) * 1.01);
+        for (l, medium) in &self.lights {
+            light_media.push(*medium);
+            lights.push(match *l {
+                LightKind::Point { position, power } => {
+                    Light::Point { position, intensity: power / (4.0 * std::f32::consts::PI) }
+                }
+                LightKind::Spot { position, look_at, power, cone_angle, falloff_start } => {
+                    let cos_max = cone_angle.to_radians().cos();
+                    let cos_start = falloff_start.unwrap_or(cone_angle).to_radians().cos();
+                    let omega = light::spot_solid_angle(cos_max, cos_start);
+                    Light::Spot {
+                        position,
+                        frame: crate::math::Frame::new((look_at - position).normalize()),
+                        intensity: power / omega,
+                        cos_max,
+                        cos_start,
+                    }
+                }
+                LightKind::Directional { direction, irradiance } => Light::Directional {
+                    direction: direction.normalize(),
+                    irradiance,
+                    center,
+                    radius,
+                },
+            });
+        }
+        let scene = Scene {
+            camera,
+            materials: self.materials.into_iter().map(|(_, m)| m).collect(),
+            shapes: self.shapes.into_iter().map(|(s, _)| s).collect(),
+            lights,
+            light_media,
+            medium_names: self.media.iter().map(|(n, _)| n.clone()).collect(),
+            media: self.media.into_iter().map(|(_, m)| m).collect(),
+            camera_medium,
+            settings: self.settings,
+            bounds: (lo, hi),
+            source: self.source,
+            accel,
+        };
+        debug_assert_eq!(scene.lights.len(), scene.light_media.len());
+        scene.check_media()?;
+        Ok(scene)
+    }
+}
+
+/// The geometry a description asks for, transformed into the scene.
+fn geometry(g: &GeometryDesc, t: &Transform, key: &str) -> Result<Geometry> {
+    let m = t.matrix();
+    let positive = |k: &str, v: &[f32]| -> Result<()> {
+        if v.iter().all(|x| x.is_finite() && *x > 0.0) {
+            Ok(())
+        } else {
+            Err(invalid(format!("{key}.{k}"), format!("must be positive, got {v:?}")))
+        }
+    };
+    Ok(match g {
+        GeometryDesc::Rectangle { size: [w, h] } => {
+            positive("size", &[*w, *h])?;
+            Geometry::Mesh(shape::rectangle(*w, *h).transformed(&m))
+        }
+        GeometryDesc::Cuboid { size } => {
+            positive("size", &size.to_array())?;
+            Geometry::Mesh(shape::cuboid(*size).transformed(&m))
+        }
+        GeometryDesc::Sphere { center, radius, tessellate } => {
+            positive("radius", &[*radius])?;
+            check_point(format!("{key}.center"), *center)?;
+            match tessellate {
+                Some(level) if *level > MAX_TESSELLATION => {
+                    return Err(invalid(
+                        format!("{key}.tessellate"),
+                        format!(
+                            "at most {MAX_TESSELLATION} subdivisions (327,680 triangles), got {level}"
+                        ),
+                    ));
+                }
+                Some(level) => {
+                    Geometry::Mesh(shape::icosphere(*center, *radius, *level).transformed(&m))
+                }
+                None => {
+                    let s = Vec3::new(
+                        m.matrix3.x_axis.length(),
+                        m.matrix3.y_axis.length(),
+                        m.matrix3.z_axis.length(),
+                    );
+                    if (s.max_element() - s.min_element()) > 1e-5 * s.max_element() {
+                        return Err(invalid(
+                            format!("{key}.transform.scale"),
+                            "an analytic sphere takes only a uniform scale (use `tessellate` for ellipsoids)",
+                        ));
+                    }
+                    Geometry::Sphere { center: m.transform_point3(*center), radius: radius * s.x }
+                }
+            }
+        }
+        GeometryDesc::Mesh(mesh) => Geometry::Mesh(mesh.clone().transformed(&m)),
+        GeometryDesc::Obj(path) => Geometry::Mesh(shape::load_obj(path)?.transformed(&m)),
+    })
+}
+
+/// Checks a shape's geometry in the scene: coordinates in range, indices and normals valid.
+fn check_geometry(geometry: &Geometry, label: &str) -> Result<()> {
+    match geometry {
+        Geometry::Sphere { center, radius } => {
+            check_point(format!("{label}.center"), *center)?;
+            check_point(format!("{label}.radius"), center.abs() + Vec3::splat(*radius))?;
+            if !(radius.is_finite() && *radius > 0.0) {
+                return Err(invalid(
+                    format!("{label}.radius"),
+                    format!("must be positive, got {radius}"),
+                ));
+            }
+        }
+        Geometry::Mesh(mesh) => {
+            if mesh.triangles.is_empty() {
+                return Err(invalid(label.to_string(), "mesh has no triangles"));
+            }
+            let n = mesh.positions.len();
+            for (i, p) in mesh.positions.iter().enumerate() {
+                check_point(format!("{label}.vertices[{i}] (after the transform)"), *p)?;
+            }
+            if let Some(t) = mesh.triangles.iter().position(|t| t.iter().any(|&i| i as usize >= n))
+            {
+                return Err(invalid(
+                    format!("{label}.triangles[{t}]"),
+                    format!("vertex index out of range (the mesh has {n} vertices)"),
+                ));
+            }
+            if let Some(ns) = &mesh.normals {
+                if ns.len() != n {
+                    return Err(invalid(
+                        format!("{label}.normals"),
+                        format!("{} normals for {n} vertices", ns.len()),
+                    ));
+                }
+                if ns.iter().any(|v| !v.is_finite() || v.length_squared() == 0.0) {
+                    return Err(invalid(format!("{label}.normals"), "must be finite and non-zero"));
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,464 @@
+//! Scene descriptions: what a scene file says, as values a program can build. A
+//! [`SceneBuilder`](super::SceneBuilder) takes them, checks them exactly as it checks a scene file
+//! (the loader turns each table into one of these), and makes the [`Scene`](super::Scene).
+//!
+//! ```
+//! use haze::scene::{CameraDesc, LightDesc, Material, MediumDesc, SceneBuilder, ShapeDesc};
+//!
+//! let mut b = SceneBuilder::new(
+//!     CameraDesc::perspective([0.0, 1.0, 4.0], [0.0, 0.5, 0.0], 40.0).resolution(64, 48),
+//! );
+//! b.material("white", Material::diffuse(0.7))?;
+//! b.material("air", Material::Interface)?;
+//! b.medium("fog", MediumDesc::homogeneous(0.05, 0.4).g(0.3))?;
+//! b.shape(ShapeDesc::rectangle(6.0, 6.0).material("white").rotate([-90.0, 0.0, 0.0]))?;
+//! b.shape(ShapeDesc::cuboid([1.0, 1.0, 1.0]).material("air").interior("fog").translate([0.0, 0.5, 0.0]))?;
+//! b.light(LightDesc::spot([0.0, 3.0, 0.0], [0.0, 0.0, 0.0], 200.0, 30.0).falloff_start(25.0))?;
+//! let scene = b.build()?;
+//! # Ok::<(), haze::Error>(())
+//! ```
+
+use super::shape::Mesh;
+use crate::math::Rgb;
+use glam::{Affine3A, Vec3};
+use std::path::PathBuf;
+
+/// A colour: one number for grey, three for RGB, or a `Vec3`.
+pub trait IntoRgb {
+    /// The RGB value.
+    fn into_rgb(self) -> Rgb;
+}
+
+impl IntoRgb for f32 {
+    fn into_rgb(self) -> Rgb {
+        Rgb::splat(self)
+    }
+}
+
+impl IntoRgb for [f32; 3] {
+    fn into_rgb(self) -> Rgb {
+        Rgb::from(self)
+    }
+}
+
+impl IntoRgb for Vec3 {
+    fn into_rgb(self) -> Rgb {
+        self
+    }
+}
+
+/// The id of a material added to a [`SceneBuilder`](super::SceneBuilder).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MaterialId(pub(crate) u32);
+
+/// The id of a medium added to a [`SceneBuilder`](super::SceneBuilder).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MediumId(pub(crate) u32);
+
+/// A material by its name or its id.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MaterialRef {
+    /// By name, as in a scene file.
+    Name(String),
+    /// By the id [`SceneBuilder::material`](super::SceneBuilder::material) returned.
+    Id(MaterialId),
+}
+
+impl From<&str> for MaterialRef {
+    fn from(name: &str) -> Self {
+        MaterialRef::Name(name.to_string())
+    }
+}
+
+impl From<String> for MaterialRef {
+    fn from(name: String) -> Self {
+        MaterialRef::Name(name)
+    }
+}
+
+impl From<MaterialId> for MaterialRef {
+    fn from(id: MaterialId) -> Self {
+        MaterialRef::Id(id)
+    }
+}
+
+/// A medium by its name or its id.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MediumRef {
+    /// By name, as in a scene file.
+    Name(String),
+    /// By the id [`SceneBuilder::medium`](super::SceneBuilder::medium) returned.
+    Id(MediumId),
+}
+
+impl From<&str> for MediumRef {
+    fn from(name: &str) -> Self {
+        MediumRef::Name(name.to_string())
+    }
+}
+
+impl From<String> for MediumRef {
+    fn from(name: String) -> Self {
+        MediumRef::Name(name)
+    }
+}
+
+impl From<MediumId> for MediumRef {
+    fn from(id: MediumId) -> Self {
+        MediumRef::Id(id)
+    }
+}
+
+/// Scale, then rotation (degrees about x, then y, then z), then translation — the scene file's
+/// `transform = { scale, rotate, translate }`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    /// Scale along each axis (not zero).
+    pub scale: Vec3,
+    /// Euler angles in degrees, applied about x, then y, then z.
+    pub rotate: Vec3,
+    /// Translation.
+    pub translate: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self { scale: Vec3::ONE, rotate: Vec3::ZERO, translate: Vec3::ZERO }
+    }
+}
+
+impl Transform {
+    /// The matrix: translate · rotate_z · rotate_y · rotate_x · scale.
+    pub(crate) fn matrix(&self) -> Affine3A {
+        super::shape::affine(self.scale, self.rotate, self.translate)
+    }
+}
+
+/// A participating medium, as a `[media.NAME]` table describes it. Coefficients are per unit
+/// length (per unit density for grids); `g` is the Henyey–Greenstein mean cosine.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MediumDesc {
+    /// Constant coefficients.
+    Homogeneous {
+        /// Absorption coefficient.
+        sigma_a: Rgb,
+        /// Scattering coefficient.
+        sigma_s: Rgb,
+        /// Mean cosine of the phase function, in (−1, 1).
+        g: f32,
+    },
+    /// Coefficients proportional to a density grid read from an OpenVDB file.
+    Vdb {
+        /// The OpenVDB file (scene files give it relative to themselves).
+        file: PathBuf,
+        /// The float grid to read.
+        grid: String,
+        /// Multiplies the grid's values.
+        density_scale: f32,
+        /// Absorption per unit density.
+        sigma_a: Rgb,
+        /// Scattering per unit density (σ_a + σ_s must be grey).
+        sigma_s: Rgb,
+        /// Mean cosine of the phase function.
+        g: f32,
+        /// Places the grid's world space in the scene.
+        transform: Transform,
+    },
+}
+
+impl MediumDesc {
+    /// A homogeneous medium from its absorption and scattering coefficients (isotropic until
+    /// [`Self::g`]).
+    pub fn homogeneous(sigma_a: impl IntoRgb, sigma_s: impl IntoRgb) -> Self {
+        MediumDesc::Homogeneous { sigma_a: sigma_a.into_rgb(), sigma_s: sigma_s.into_rgb(), g: 0.0 }
+    }
+
+    /// A grid medium from an OpenVDB file's `density` grid, with σ_a = 0 and σ_s = 1 per unit
+    /// density until [`Self::coefficients`] or [`Self::albedo_extinction`] say otherwise.
+    pub fn vdb(file: impl Into<PathBuf>) -> Self {
+        MediumDesc::Vdb {
+            file: file.into(),
+            grid: "density".into(),
+            density_scale: 1.0,
+            sigma_a: Rgb::ZERO,
+            sigma_s: Rgb::ONE,
+            g: 0.0,
+            transform: Transform::default(),
+        }
+    }
+
+    /// Sets the Henyey–Greenstein mean cosine.
+    pub fn g(mut self, g: f32) -> Self {
+        match &mut self {
+            MediumDesc::Homogeneous { g: x, .. } | MediumDesc::Vdb { g: x, .. } => *x = g,
+        }
+        self
+    }
+
+    /// Sets the absorption and scattering coefficients.
+    pub fn coefficients(mut self, sigma_a: impl IntoRgb, sigma_s: impl IntoRgb) -> Self {
+        let (a, s) = (sigma_a.into_rgb(), sigma_s.into_rgb());
+        match &mut self {
+            MediumDesc::Homogeneous { sigma_a, sigma_s, .. }
+            | MediumDesc::Vdb { sigma_a, sigma_s, .. } => (*sigma_a, *sigma_s) = (a, s),
+        }
+        self
+    }
+
+    /// Sets the coefficients from the single-scattering albedo and the extinction:
+    /// σ_s = albedo · σ_t, σ_a = σ_t − σ_s.
+    pub fn albedo_extinction(self, albedo: impl IntoRgb, sigma_t: impl IntoRgb) -> Self {
+        let (albedo, sigma_t) = (albedo.into_rgb(), sigma_t.into_rgb());
+        self.coefficients((Rgb::ONE - albedo) * sigma_t, albedo * sigma_t)
+    }
+
+    /// Grid media: the grid to read (default `density`).
+    pub fn grid(mut self, name: &str) -> Self {
+        if let MediumDesc::Vdb { grid, .. } = &mut self {
+            *grid = name.to_string();
+        }
+        self
+    }
+
+    /// Grid media: multiplies the grid's values (default 1).
+    pub fn density_scale(mut self, scale: f32) -> Self {
+        if let MediumDesc::Vdb { density_scale, .. } = &mut self {
+            *density_scale = scale;
+        }
+        self
+    }
+
+    /// Grid media: places the grid's world space in the scene.
+    pub fn transform(mut self, t: Transform) -> Self {
+        if let MediumDesc::Vdb { transform, .. } = &mut self {
+            *transform = t;
+        }
+        self
+    }
+}
+
+/// The geometry of a shape, before its transform.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GeometryDesc {
+    /// A w × h rectangle in the xy-plane, centred, facing +z.
+    Rectangle {
+        /// Width and height.
+        size: [f32; 2],
+    },
+    /// An axis-aligned box, centred, faces outward.
+    Cuboid {
+        /// Size along x, y and z.
+        size: Vec3,
+    },
+    /// A sphere: analytic, or an icosphere of 20·4ⁿ triangles with interpolated normals.
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+        /// Subdivision level of the icosphere (0–7), or `None` for the analytic sphere.
+        tessellate: Option<u32>,
+    },
+    /// A triangle mesh.
+    Mesh(Mesh),
+    /// A Wavefront OBJ file (every object, as one mesh).
+    Obj(PathBuf),
+}
+
+/// A shape, as a `[[shapes]]` table describes it: geometry, material, optional emission and the
+/// media on its two sides, and a transform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShapeDesc {
+    /// The geometry.
+    pub geometry: GeometryDesc,
+    /// The material (required).
+    pub material: Option<MaterialRef>,
+    /// Emitted radiance from the front side: the shape becomes an area light.
+    pub emission: Option<Rgb>,
+    /// The medium behind the surface (inside a closed shape).
+    pub interior: Option<MediumRef>,
+    /// The medium in front of the surface.
+    pub exterior: Option<MediumRef>,
+    /// Placement.
+    pub transform: Transform,
+}
+
+impl ShapeDesc {
+    fn of(geometry: GeometryDesc) -> Self {
+        Self {
+            geometry,
+            material: None,
+            emission: None,
+            interior: None,
+            exterior: None,
+            transform: Transform::default(),
+        }
+    }
+
+    /// A w × h rectangle in the xy-plane, centred, facing +z.
+    pub fn rectangle(w: f32, h: f32) -> Self {
+        Self::of(GeometryDesc::Rectangle { size: [w, h] })
+    }
+
+    /// A box of the given size, centred at the origin.
+    pub fn cuboid(size: impl Into<Vec3>) -> Self {
+        Self::of(GeometryDesc::Cuboid { size: size.into() })
+    }
+
+    /// An analytic sphere.
+    pub fn sphere(center: impl Into<Vec3>, radius: f32) -> Self {
+        Self::of(GeometryDesc::Sphere { center: center.into(), radius, tessellate: None })
+    }
+
+    /// A triangle mesh.
+    pub fn mesh(mesh: Mesh) -> Self {
+        Self::of(GeometryDesc::Mesh(mesh))
+    }
+
+    /// The meshes of a Wavefront OBJ file.
+    pub fn obj(file: impl Into<PathBuf>) -> Self {
+        Self::of(GeometryDesc::Obj(file.into()))
+    }
+
+    /// Sets the material, by name or id.
+    pub fn material(mut self, m: impl Into<MaterialRef>) -> Self {
+        self.material = Some(m.into());
+        self
+    }
+
+    /// Makes the shape an area light of radiance `le` on its front side.
+    pub fn emission(mut self, le: impl IntoRgb) -> Self {
+        self.emission = Some(le.into_rgb());
+        self
+    }
+
+    /// Sets the medium inside (behind the surface).
+    pub fn interior(mut self, m: impl Into<MediumRef>) -> Self {
+        self.interior = Some(m.into());
+        self
+    }
+
+    /// Sets the medium outside (in front of the surface).
+    pub fn exterior(mut self, m: impl Into<MediumRef>) -> Self {
+        self.exterior = Some(m.into());
+        self
+    }
+
+    /// Tessellates a sphere into an icosphere of `level` subdivisions.
+    pub fn tessellate(mut self, level: u32) -> Self {
+        if let GeometryDesc::Sphere { tessellate, .. } = &mut self.geometry {
+            *tessellate = Some(level);
+        }
+        self
+    }
+
+    /// Sets the scale (applied first).
+    pub fn scale(mut self, s: impl IntoRgb) -> Self {
+        self.transform.scale = s.into_rgb();
+        self
+    }
+
+    /// Sets the rotation: degrees about x, then y, then z (after the scale).
+    pub fn rotate(mut self, degrees: impl Into<Vec3>) -> Self {
+        self.transform.rotate = degrees.into();
+        self
+    }
+
+    /// Sets the translation (applied last).
+    pub fn translate(mut self, t: impl Into<Vec3>) -> Self {
+        self.transform.translate = t.into();
+        self
+    }
+}
+
+/// A light, as a `[[lights]]` table describes it (area lights are shapes with an emission).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightDesc {
+    /// What kind of light.
+    pub kind: LightKind,
+    /// The medium it emits into (vacuum if `None`).
+    pub medium: Option<MediumRef>,
+}
+
+/// The kinds of light besides area lights.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LightKind {
+    /// Isotropic point light of total power `power` (W).
+    Point {
+        /// Position.
+        position: Vec3,
+        /// Total power (W).
+        power: Rgb,
+    },
+    /// Spot light of total power `power` (W), cone half-angle `cone_angle` (degrees) and a
+    /// smooth falloff from `falloff_start` (degrees; `None`: a hard edge at the cone).
+    Spot {
+        /// Position.
+        position: Vec3,
+        /// Point the spot aims at.
+        look_at: Vec3,
+        /// Total power (W).
+        power: Rgb,
+        /// Half-angle of the cone (degrees, in (0, 180)).
+        cone_angle: f32,
+        /// Half-angle where the falloff starts (degrees, ≤ cone_angle).
+        falloff_start: Option<f32>,
+    },
+    /// Parallel light travelling along `direction` with irradiance `irradiance` (W/m²).
+    Directional {
+        /// Direction light travels.
+        direction: Vec3,
+        /// Irradiance on a perpendicular plane (W/m²).
+        irradiance: Rgb,
+    },
+}
+
+impl LightDesc {
+    fn of(kind: LightKind) -> Self {
+        Self { kind, medium: None }
+    }
+
+    /// An isotropic point light of total power `power` (W).
+    pub fn point(position: impl Into<Vec3>, power: impl IntoRgb) -> Self {
+        Self::of(LightKind::Point { position: position.into(), power: power.into_rgb() })
+    }
+
+    /// A spot light of total power `power` (W) with cone half-angle `cone_angle` (degrees) and a
+    /// hard edge (see [`Self::falloff_start`]).
+    pub fn spot(
+        position: impl Into<Vec3>,
+        look_at: impl Into<Vec3>,
+        power: impl IntoRgb,
+        cone_angle: f32,
+    ) -> Self {
+        Self::of(LightKind::Spot {
+            position: position.into(),
+            look_at: look_at.into(),
+            power: power.into_rgb(),
+            cone_angle,
+            falloff_start: None,
+        })
+    }
+
+    /// A parallel light travelling along `direction` with `irradiance` (W/m²).
+    pub fn directional(direction: impl Into<Vec3>, irradiance: impl IntoRgb) -> Self {
+        Self::of(LightKind::Directional {
+            direction: direction.into(),
+            irradiance: irradiance.into_rgb(),
+        })
+    }
+
+    /// A spot light's smooth falloff from `degrees` to the cone's edge.
+    pub fn falloff_start(mut self, degrees: f32) -> Self {
+        if let LightKind::Spot { falloff_start, .. } = &mut self.kind {
+            *falloff_start = Some(degrees);
+        }
+        self
+    }
+
+    /// The medium the light emits into.
+    pub fn medium(mut self, m: impl Into<MediumRef>) -> Self {
+        self.medium = Some(m.into());
+        self
+    }
+}
