@@ -5,22 +5,50 @@
 //! 2011): every iteration is an ordinary photon-mapping render whose radius depends only on the
 //! iteration number, and the image is the mean of the iterations.
 //!
-//! The data flow mirrors the modules: a [`scene::Scene`] (loaded from TOML or built with
-//! [`scene::SceneBuilder`]) → per iteration a photon pass ([`photon`]) and a photon map → a camera
-//! pass ([`integrator::camera`]) with the radiance estimates of [`estimate`] → a [`film::Film`]
-//! holding the running mean → an [`output::Image`] written as OpenEXR and PNG.
+//! A [`Scene`] comes from a TOML scene file ([`Scene::load`]; the format is `docs/scene-format.md`)
+//! or from a [`SceneBuilder`] fed with descriptions that read like the file
+//! ([`scene::describe`]). [`render`] takes the scene and [`RenderSettings`] (every setting and its
+//! meaning: [`settings`]) and returns an [`Image`], reporting every iteration to a
+//! [`progress::Progress`] callback; the library never prints. The [`lab`] holds the analytic
+//! references and the tools that check and measure the renderer.
+//!
+//! Rendering a scene file (paths are relative to the working directory):
 //!
 //! ```no_run
 //! use haze::{Scene, render, progress::Status};
 //! use std::sync::atomic::AtomicBool;
 //!
 //! let scene = Scene::load("scenes/cornell-box.toml")?;
-//! let mut settings = scene.settings.clone();
-//! settings.iterations = Some(16);
-//! let stop = AtomicBool::new(false);
+//! let settings = haze::RenderSettings { iterations: Some(16), ..scene.settings.clone() };
+//! let stop = AtomicBool::new(false); // raise it from another thread to stop early
 //! let mut on_iteration = |s: &Status| eprintln!("iteration {}", s.iteration());
 //! let image = render(&scene, &settings, &mut on_iteration, &stop)?;
-//! image.write("cornell.exr".as_ref(), 1.0)?;
+//! image.write("cornell.exr".as_ref(), 1.0)?; // OpenEXR, and a PNG preview beside it
+//! # Ok::<(), haze::Error>(())
+//! ```
+//!
+//! A smoke box built in code: a cloud from an OpenVDB grid in a pass-through box over a floor,
+//! under the sun.
+//!
+//! ```
+//! use haze::scene::{CameraDesc, LightDesc, Material, MediumDesc, SceneBuilder, ShapeDesc};
+//! use haze::{RenderSettings, progress::Silent};
+//! use std::sync::atomic::AtomicBool;
+//!
+//! # let cloud = concat!(env!("CARGO_MANIFEST_DIR"), "/media/cloud.vdb");
+//! let camera = CameraDesc::perspective([0.0, 0.5, 4.0], [0.0, 0.0, 0.0], 35.0).resolution(48, 32);
+//! let mut b = SceneBuilder::new(camera);
+//! b.material("air", Material::Interface)?;
+//! b.material("floor", Material::diffuse(0.6))?;
+//! // One call reads the grid: density × 4, albedo 0.9, extinction 3 per unit density.
+//! b.medium("smoke", MediumDesc::vdb(cloud).density_scale(4.0).albedo_extinction(0.9, 3.0).g(0.3))?;
+//! b.shape(ShapeDesc::cuboid([2.0, 2.0, 2.0]).material("air").interior("smoke"))?;
+//! b.shape(ShapeDesc::rectangle(8.0, 8.0).material("floor").rotate([-90.0, 0.0, 0.0]).translate([0.0, -1.0, 0.0]))?;
+//! b.light(LightDesc::directional([0.3, -1.0, 0.2], 2.0))?;
+//! let scene = b.build()?;
+//! let settings = RenderSettings { iterations: Some(2), photons: 20_000, ..RenderSettings::default() };
+//! let image = haze::render(&scene, &settings, &mut Silent, &AtomicBool::new(false))?;
+//! assert!(image.mean() > 0.0);
 //! # Ok::<(), haze::Error>(())
 //! ```
 #![forbid(unsafe_code)]

@@ -1,6 +1,6 @@
 //! Render settings, each defined once.
 //!
-//! Every setting is one entry of the [`render_settings!`] list below: its key, type, default,
+//! Every setting is one entry of the `render_settings!` list below: its key, type, default,
 //! documentation, command-line flag and range check. From that list come
 //!
 //! - [`RenderSettings`], the settings a render uses (every field set);

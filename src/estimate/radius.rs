@@ -65,7 +65,7 @@ fn ln_gamma_ratio(n: u64, alpha: f64) -> f64 {
 pub const MIN_RATIO: f64 = 1e-12;
 
 /// r_n / r_1 for iteration `n` ≥ 1 of the schedule with reduction `alpha` and kernel dimension
-/// `dim`: (Γ(n + α) / (Γ(1 + α) Γ(n + 1)))^(1/d), floored at [`MIN_RATIO`].
+/// `dim`: (Γ(n + α) / (Γ(1 + α) Γ(n + 1)))^(1/d), floored at `MIN_RATIO` (10⁻¹²).
 pub fn radius_ratio(n: u64, alpha: f64, dim: u32) -> f64 {
     let ln_rd = ln_gamma_ratio(n.max(1), alpha) - ln_gamma(1.0 + alpha);
     (ln_rd / dim as f64).exp().max(MIN_RATIO)

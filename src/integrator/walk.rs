@@ -81,6 +81,39 @@ pub(crate) trait EyeVisitor {
     }
 }
 
+/// What one step of a walk did.
+enum Step {
+    /// Crossed a pass-through interface: not a scattering event.
+    Crossed,
+    /// Scattered (in a medium or at a surface): the path goes on from its new origin.
+    Scattered,
+    /// The path ends.
+    Stop,
+}
+
+impl<'a> EyePath<'a> {
+    /// The path of pixel (x, y) of iteration `iteration`: its stream, and the jittered camera
+    /// ray.
+    fn start(scene: &'a Scene, seed: u64, iteration: u64, pixel: [u32; 2], max_depth: u32) -> Self {
+        let [x, y] = pixel;
+        let width = scene.camera.resolution[0];
+        let mut s = Sampler::new(seed, Purpose::Camera, iteration, (y * width + x) as u64);
+        let jittered = Vec2::new(x as f32, y as f32) + s.next_2d();
+        let ray = scene.camera.generate_ray(jittered, s.next_2d());
+        EyePath {
+            scene,
+            s,
+            o: ray.o,
+            d: ray.d,
+            medium: scene.camera_medium,
+            beta: Rgb::ONE,
+            l: Rgb::ZERO,
+            depth: 0,
+            max_depth,
+        }
+    }
+}
+
 /// Follows the eye path of pixel (x, y) of iteration `iteration` and returns the radiance it
 /// collects.
 pub(crate) fn walk_eye(
@@ -91,87 +124,101 @@ pub(crate) fn walk_eye(
     max_depth: u32,
     visitor: &mut impl EyeVisitor,
 ) -> Rgb {
-    let [x, y] = pixel;
-    let width = scene.camera.resolution[0];
-    let mut s = Sampler::new(seed, Purpose::Camera, iteration, (y * width + x) as u64);
-    let jittered = Vec2::new(x as f32, y as f32) + s.next_2d();
-    let ray = scene.camera.generate_ray(jittered, s.next_2d());
-    let mut path = EyePath {
-        scene,
-        s,
-        o: ray.o,
-        d: ray.d,
-        medium: scene.camera_medium,
-        beta: Rgb::ONE,
-        l: Rgb::ZERO,
-        depth: 0,
-        max_depth,
-    };
+    let mut path = EyePath::start(scene, seed, iteration, pixel, max_depth);
     let mut crossings = 0u32;
     loop {
         let hit = scene.intersect(path.o, path.d, f32::INFINITY);
-        if let Some(id) = path.medium {
-            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-            match visitor.medium(&mut path, &scene.media[id as usize], id, t_max) {
-                Next::Stop => break,
-                Next::Scatter { o, d } => {
-                    (path.o, path.d) = (o, d);
-                    if !visitor.survive(&mut path) {
-                        break;
-                    }
-                    path.depth += 1;
-                    continue;
-                }
-                Next::Continue => {}
-            }
-            if path.beta.max_element() <= 0.0 {
-                break;
-            }
-        }
-        let Some(hit) = hit else { break };
-        let wo = -path.d;
-        let shape = &scene.shapes[hit.tag as usize];
-        if let Some(le) = shape.emission {
-            if wo.dot(hit.ng) > 0.0 {
-                path.l += visitor.emission(&path, &hit, le);
-            }
-        }
-        let material = &scene.materials[shape.material as usize];
-        match material {
-            Material::Interface => {
-                // Index-matched: straight on into the medium on the far side; not an event.
-                crossings += 1;
-                if crossings > MAX_CROSSINGS {
-                    break;
-                }
-                path.medium = shape.medium_after(path.medium, wo, path.d, hit.ng);
-                path.o = offset_origin(hit.p, hit.ng, path.d);
-                continue;
-            }
-            Material::Diffuse { .. } => match visitor.diffuse(&mut path, &hit, material) {
-                Next::Scatter { o, d } => (path.o, path.d) = (o, d),
-                Next::Continue | Next::Stop => break,
+        let step = match through_medium(&mut path, hit.as_ref(), visitor) {
+            Some(step) => step,
+            None => match &hit {
+                Some(hit) => at_surface(&mut path, hit, visitor, &mut crossings),
+                None => Step::Stop,
             },
-            _ => {
-                if path.last() {
+        };
+        match step {
+            Step::Crossed => continue,
+            Step::Stop => break,
+            Step::Scattered => {
+                if !visitor.survive(&mut path) {
                     break;
                 }
-                let (u, u_lobe) = (path.s.next_2d(), path.s.next_f32());
-                let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Radiance)
-                else {
-                    break;
-                };
-                path.beta *= bs.weight;
-                path.medium = shape.medium_after(path.medium, wo, bs.wi, hit.ng);
-                path.o = offset_origin(hit.p, hit.ng, bs.wi);
-                path.d = bs.wi;
-                visitor.after_specular(&mut path);
+                path.depth += 1;
             }
         }
-        if !visitor.survive(&mut path) {
-            break;
-        }
-        path.depth += 1;
     }
     path.l
+}
+
+/// The segment up to `hit` (or to infinity) in the path's medium, if it is in one. `None` when the
+/// path goes on to the surface.
+fn through_medium(
+    path: &mut EyePath,
+    hit: Option<&Hit>,
+    visitor: &mut impl EyeVisitor,
+) -> Option<Step> {
+    let id = path.medium?;
+    let scene = path.scene;
+    let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+    match visitor.medium(path, &scene.media[id as usize], id, t_max) {
+        Next::Stop => Some(Step::Stop),
+        Next::Scatter { o, d } => {
+            (path.o, path.d) = (o, d);
+            Some(Step::Scattered)
+        }
+        Next::Continue => (path.beta.max_element() <= 0.0).then_some(Step::Stop),
+    }
+}
+
+/// The path reached a surface: an emitter counts, a pass-through interface is crossed, a diffuse
+/// surface goes to the visitor, a specular one turns the path.
+fn at_surface(
+    path: &mut EyePath,
+    hit: &Hit,
+    visitor: &mut impl EyeVisitor,
+    crossings: &mut u32,
+) -> Step {
+    let scene = path.scene;
+    let wo = -path.d;
+    let shape = &scene.shapes[hit.tag as usize];
+    if let Some(le) = shape.emission {
+        if wo.dot(hit.ng) > 0.0 {
+            path.l += visitor.emission(path, hit, le);
+        }
+    }
+    let material = &scene.materials[shape.material as usize];
+    match material {
+        Material::Interface => {
+            // Index-matched: straight on into the medium on the far side; not an event.
+            *crossings += 1;
+            if *crossings > MAX_CROSSINGS {
+                return Step::Stop;
+            }
+            path.medium = shape.medium_after(path.medium, wo, path.d, hit.ng);
+            path.o = offset_origin(hit.p, hit.ng, path.d);
+            Step::Crossed
+        }
+        Material::Diffuse { .. } => match visitor.diffuse(path, hit, material) {
+            Next::Scatter { o, d } => {
+                (path.o, path.d) = (o, d);
+                Step::Scattered
+            }
+            Next::Continue | Next::Stop => Step::Stop,
+        },
+        _ => {
+            if path.last() {
+                return Step::Stop;
+            }
+            let (u, u_lobe) = (path.s.next_2d(), path.s.next_f32());
+            let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Radiance)
+            else {
+                return Step::Stop;
+            };
+            path.beta *= bs.weight;
+            path.medium = shape.medium_after(path.medium, wo, bs.wi, hit.ng);
+            path.o = offset_origin(hit.p, hit.ng, bs.wi);
+            path.d = bs.wi;
+            visitor.after_specular(path);
+            Step::Scattered
+        }
+    }
 }

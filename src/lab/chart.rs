@@ -56,6 +56,65 @@ const LEGEND_ROW: f64 = 22.0;
 /// Glyph scale: font8x8 glyphs drawn 16 pixels high.
 const TEXT: f64 = 16.0;
 
+/// The plotted range in log10 units, and its map to pixels.
+#[derive(Clone, Copy)]
+struct Axes {
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+}
+
+impl Axes {
+    fn map(&self, (x, y): (f64, f64)) -> (f64, f64) {
+        let (px0, px1) = (LEFT, WIDTH - RIGHT);
+        let (py0, py1) = (PLOT_H - BOTTOM, TOP);
+        let Axes { x0, x1, y0, y1 } = *self;
+        (px0 + (x - x0) / (x1 - x0) * (px1 - px0), py0 + (y - y0) / (y1 - y0) * (py1 - py0))
+    }
+}
+
+/// A line's plottable points in log10 units (non-positive and non-finite ones skipped).
+fn log_points(l: &Line) -> Vec<(f64, f64)> {
+    l.points
+        .iter()
+        .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+        .map(|&(x, y)| (x.log10(), y.log10()))
+        .collect()
+}
+
+/// Line `i` of a chart: its segments, markers and legend row.
+fn series(prims: &mut Vec<Prim>, line: &Line, i: usize, axes: &Axes) {
+    let color = PALETTE[line.color % PALETTE.len()];
+    let p: Vec<(f64, f64)> = log_points(line).into_iter().map(|q| axes.map(q)).collect();
+    for w in p.windows(2) {
+        prims.push(Prim::Line {
+            a: w[0],
+            b: w[1],
+            color,
+            width: if line.dashed { 1.5 } else { 2.0 },
+            dashed: line.dashed,
+        });
+    }
+    if !line.dashed {
+        prims.extend(p.iter().map(|&at| Prim::Marker { at, color }));
+    }
+    let y = PLOT_H + i as f64 * LEGEND_ROW;
+    prims.push(Prim::Line {
+        a: (LEFT, y + TEXT / 2.0),
+        b: (LEFT + 40.0, y + TEXT / 2.0),
+        color,
+        width: 2.0,
+        dashed: line.dashed,
+    });
+    prims.push(Prim::Text {
+        at: (LEFT + 52.0, y),
+        text: line.label.clone(),
+        anchor: Anchor::Start,
+        vertical: false,
+    });
+}
+
 #[derive(Clone, Copy, PartialEq)]
 enum Anchor {
     Start,
@@ -104,15 +163,7 @@ impl Chart {
     }
 
     fn layout(&self) -> Vec<Prim> {
-        let mut prims = Vec::new();
-        let pts = |l: &Line| {
-            l.points
-                .iter()
-                .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
-                .map(|&(x, y)| (x.log10(), y.log10()))
-                .collect::<Vec<_>>()
-        };
-        let all: Vec<(f64, f64)> = self.lines.iter().flat_map(pts).collect();
+        let all: Vec<(f64, f64)> = self.lines.iter().flat_map(log_points).collect();
         let (mut x0, mut x1, mut y0, mut y1) = all.iter().fold(
             (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY),
             |(a, b, c, d), &(x, y)| (a.min(x), b.max(x), c.min(y), d.max(y)),
@@ -127,21 +178,30 @@ impl Chart {
         };
         let (x0, x1) = pad(x0, x1);
         let (y0, y1) = pad(y0, y1);
+        let axes = Axes { x0, x1, y0, y1 };
+        let mut prims = self.frame(&axes);
+        for (i, line) in self.lines.iter().enumerate() {
+            series(&mut prims, line, i, &axes);
+        }
+        prims
+    }
+
+    /// Grid lines, tick labels, the frame, the title and the axis labels.
+    fn frame(&self, axes: &Axes) -> Vec<Prim> {
+        let mut prims = Vec::new();
+        let Axes { x0, x1, y0, y1 } = *axes;
         let (px0, px1) = (LEFT, WIDTH - RIGHT);
         let (py0, py1) = (PLOT_H - BOTTOM, TOP);
-        let map = move |(x, y): (f64, f64)| {
-            (px0 + (x - x0) / (x1 - x0) * (px1 - px0), py0 + (y - y0) / (y1 - y0) * (py1 - py0))
-        };
         // Grid lines and labels: vertical lines for x ticks, horizontal ones for y ticks.
         let x_ticks = ticks(x0, x1).into_iter().map(|(v, l)| (v, l, true));
         for (v, labelled, vertical) in
             x_ticks.chain(ticks(y0, y1).into_iter().map(|(v, l)| (v, l, false)))
         {
             let (a, b, label_at, anchor) = if vertical {
-                let (x, _) = map((v.log10(), y0));
+                let (x, _) = axes.map((v.log10(), y0));
                 ((x, py0), (x, py1), (x, py0 + 8.0), Anchor::Middle)
             } else {
-                let (_, y) = map((x0, v.log10()));
+                let (_, y) = axes.map((x0, v.log10()));
                 ((px0, y), (px1, y), (px0 - 8.0, y - TEXT / 2.0), Anchor::End)
             };
             prims.push(Prim::Line { a, b, color: GRID, width: 1.0, dashed: false });
@@ -154,54 +214,15 @@ impl Chart {
         for w in frame.windows(2) {
             prims.push(Prim::Line { a: w[0], b: w[1], color: BLACK, width: 1.5, dashed: false });
         }
-        prims.push(Prim::Text {
-            at: (0.5 * (px0 + px1), 14.0),
-            text: self.title.clone(),
+        let text = |at, text: &str, vertical| Prim::Text {
+            at,
+            text: text.to_string(),
             anchor: Anchor::Middle,
-            vertical: false,
-        });
-        prims.push(Prim::Text {
-            at: (0.5 * (px0 + px1), py0 + 40.0),
-            text: self.x_label.clone(),
-            anchor: Anchor::Middle,
-            vertical: false,
-        });
-        prims.push(Prim::Text {
-            at: (20.0, 0.5 * (py0 + py1)),
-            text: self.y_label.clone(),
-            anchor: Anchor::Middle,
-            vertical: true,
-        });
-        for (i, line) in self.lines.iter().enumerate() {
-            let color = PALETTE[line.color % PALETTE.len()];
-            let p: Vec<(f64, f64)> = pts(line).into_iter().map(map).collect();
-            for w in p.windows(2) {
-                prims.push(Prim::Line {
-                    a: w[0],
-                    b: w[1],
-                    color,
-                    width: if line.dashed { 1.5 } else { 2.0 },
-                    dashed: line.dashed,
-                });
-            }
-            if !line.dashed {
-                prims.extend(p.iter().map(|&at| Prim::Marker { at, color }));
-            }
-            let y = PLOT_H + i as f64 * LEGEND_ROW;
-            prims.push(Prim::Line {
-                a: (LEFT, y + TEXT / 2.0),
-                b: (LEFT + 40.0, y + TEXT / 2.0),
-                color,
-                width: 2.0,
-                dashed: line.dashed,
-            });
-            prims.push(Prim::Text {
-                at: (LEFT + 52.0, y),
-                text: line.label.clone(),
-                anchor: Anchor::Start,
-                vertical: false,
-            });
-        }
+            vertical,
+        };
+        prims.push(text((0.5 * (px0 + px1), 14.0), &self.title, false));
+        prims.push(text((0.5 * (px0 + px1), py0 + 40.0), &self.x_label, false));
+        prims.push(text((20.0, 0.5 * (py0 + py1)), &self.y_label, true));
         prims
     }
 

@@ -297,6 +297,48 @@ pub fn run(
     progress: &mut dyn FnMut(usize, u32, f64),
     stop: &AtomicBool,
 ) -> Result<Vec<Sample>> {
+    check(scene, series, reference, plan)?;
+    let marks = checkpoints(u64::MAX / 2);
+    let mut samples = Vec::new();
+    for (si, s) in series.iter().enumerate() {
+        for run in 0..plan.runs {
+            if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return Ok(samples);
+            }
+            let mut settings = s.settings.clone();
+            settings.seed = s.settings.seed.wrapping_add(run as u64);
+            settings.iterations = plan.max_iterations;
+            settings.time_limit = Some(plan.seconds);
+            let mut next = 0;
+            let mut overhead = 0.0;
+            let mut on_iteration = |st: &Status| {
+                let t0 = Instant::now();
+                let seconds = st.elapsed() - overhead;
+                if st.iteration() == marks[next] {
+                    next += 1;
+                    let error = measure(&st.film.mean(), reference, plan.region);
+                    samples.push(Sample {
+                        series: si,
+                        run,
+                        iterations: st.iteration(),
+                        light_paths: st.info.light_paths,
+                        seconds,
+                        error,
+                    });
+                }
+                progress(si, run, seconds);
+                overhead += t0.elapsed().as_secs_f64();
+            };
+            crate::render(scene, &settings, &mut on_iteration, stop)
+                .map_err(|e| Error::Settings(format!("series `{}`: {e}", s.label)))?;
+        }
+    }
+    Ok(samples)
+}
+
+/// Refuses, before any work is done, a reference of the wrong size, a region outside the image,
+/// a series that would reuse the reference's seed, and a series that cannot render.
+fn check(scene: &Scene, series: &[Series], reference: &Reference, plan: &Plan) -> Result<()> {
     let [w, h] = scene.resolution();
     if [w, h] != [reference.width, reference.height] {
         return Err(Error::Settings(format!(
@@ -336,42 +378,7 @@ pub fn run(
             )));
         }
     }
-    let marks = checkpoints(u64::MAX / 2);
-    let mut samples = Vec::new();
-    for (si, s) in series.iter().enumerate() {
-        for run in 0..plan.runs {
-            if stop.load(std::sync::atomic::Ordering::Relaxed) {
-                return Ok(samples);
-            }
-            let mut settings = s.settings.clone();
-            settings.seed = s.settings.seed.wrapping_add(run as u64);
-            settings.iterations = plan.max_iterations;
-            settings.time_limit = Some(plan.seconds);
-            let mut next = 0;
-            let mut overhead = 0.0;
-            let mut on_iteration = |st: &Status| {
-                let t0 = Instant::now();
-                let seconds = st.elapsed() - overhead;
-                if st.iteration() == marks[next] {
-                    next += 1;
-                    let error = measure(&st.film.mean(), reference, plan.region);
-                    samples.push(Sample {
-                        series: si,
-                        run,
-                        iterations: st.iteration(),
-                        light_paths: st.info.light_paths,
-                        seconds,
-                        error,
-                    });
-                }
-                progress(si, run, seconds);
-                overhead += t0.elapsed().as_secs_f64();
-            };
-            crate::render(scene, &settings, &mut on_iteration, stop)
-                .map_err(|e| Error::Settings(format!("series `{}`: {e}", s.label)))?;
-        }
-    }
-    Ok(samples)
+    Ok(())
 }
 
 /// One point of a series: a checkpoint reached by every run, averaged over the runs.

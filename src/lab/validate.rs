@@ -208,6 +208,18 @@ fn smoothing_bias(reference: f64, r: f64, mu: f64) -> f64 {
 
 fn cases(media_dir: &Path) -> Vec<Case> {
     let mut out = Vec::new();
+    out.extend(furnace_cases(media_dir));
+    out.extend(beer_lambert_cases(media_dir));
+    out.extend(half_space_cases());
+    out.extend(grazing_single_scattering_cases());
+    out.push(slab_single_scattering_case());
+    out.extend(point_source_cases());
+    out
+}
+
+/// The white furnace, homogeneous and with a constant grid.
+fn furnace_cases(media_dir: &Path) -> Vec<Case> {
+    let mut out = Vec::new();
     let fov = 20.0f64;
     let cos_max = ((fov.to_radians() / 2.0).tan() * 2f64.sqrt()).atan().cos();
     // White furnace: camera at the centre of the cube, looking at a wall.
@@ -248,6 +260,12 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
+    out
+}
+
+/// Beer–Lambert through a homogeneous slab and through the gradient grid.
+fn beer_lambert_cases(media_dir: &Path) -> Vec<Case> {
+    let mut out = Vec::new();
     // Beer–Lambert through a homogeneous absorbing slab, seen orthographically.
     let (thickness, sigma_a, le) = (1.2, 1.5, 2.0);
     out.push(Case {
@@ -284,6 +302,12 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
+    out
+}
+
+/// The multiply scattering half-space at three views.
+fn half_space_cases() -> Vec<Case> {
+    let mut out = Vec::new();
     // The semi-infinite half-space: a 32 × 16 × 32 block (σ_t 1, albedo ω, isotropic) under
     // collimated light at normal incidence. Uniform illumination makes the exitant radiance the
     // same at every point far from the block's edges, so an orthographic camera averages the
@@ -323,6 +347,12 @@ fn cases(media_dir: &Path) -> Vec<Case> {
             photons_scale: 1,
         });
     }
+    out
+}
+
+/// The grazing half-space in single scattering from two camera distances.
+fn grazing_single_scattering_cases() -> Vec<Case> {
+    let mut out = Vec::new();
     // The half-space at a grazing view (μ 0.3) in single scattering (paths of one scattering
     // event, through the pass-through surface), with a small beam radius, from two camera
     // distances along the same line of sight: nothing physical changes, only the rounding of the
@@ -370,6 +400,11 @@ fn cases(media_dir: &Path) -> Vec<Case> {
             photons_scale: 10,
         });
     }
+    out
+}
+
+/// Single scattering in a slab.
+fn slab_single_scattering_case() -> Case {
     // Single scattering in a slab seen from outside, paths limited to one scattering event: the
     // slab's pass-through faces are not scattering events, so each method renders exactly the
     // singly scattered light, L₁(μ) = E ω f_p (1 − e^{−τ(1 + 1/μ)}) / (1 + μ).
@@ -383,7 +418,7 @@ fn cases(media_dir: &Path) -> Vec<Case> {
     // The source function ω f_p E e^{−z} at the top face, and at the bottom face seen through the
     // slab (the beam's disc pokes out of both).
     let source = irradiance * omega * phase * (1.0 + (-tau * (1.0 + 1.0 / mu)).exp());
-    out.push(Case {
+    Case {
         name: format!("slab single scattering (τ {tau}, ω {omega}, g {g}, μ {mu}), max_depth 1"),
         medium: "homogeneous",
         toml: half_space_toml(HalfSpaceView {
@@ -406,7 +441,12 @@ fn cases(media_dir: &Path) -> Vec<Case> {
         max_depth: 1,
         volume_radius: [0.02, 0.04],
         photons_scale: 1,
-    });
+    }
+}
+
+/// The point source in an infinite medium, single and all orders of scattering.
+fn point_source_cases() -> Vec<Case> {
+    let mut out = Vec::new();
     // An isotropic point source of power Φ in an infinite medium (σ_t 1, albedo ω, isotropic),
     // seen by a thin orthographic camera 1 mean free path away, looking perpendicular to the line
     // to the source; references from the Fourier-space Green's function (`PointSourceMedium`).

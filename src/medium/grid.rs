@@ -80,171 +80,11 @@ fn find_map_name(bytes: &[u8]) -> Option<String> {
 impl DensityGrid {
     /// Reads float grid `name` from the OpenVDB file at `path`.
     pub fn load(path: &Path, name: &str) -> Result<DensityGrid> {
-        let err = |m: String| volume_error(path, m);
-        let mut file = std::fs::File::open(path)
-            .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
-        let len = file.metadata().map(|m| m.len()).unwrap_or(0);
-        let mut magic = [0u8; 8];
-        if file.read_exact(&mut magic).is_err() || magic[..4] != [0x20, 0x42, 0x44, 0x56] {
-            return Err(err("not an OpenVDB file (bad magic number)".into()));
-        }
-        file.seek(SeekFrom::Start(0)).map_err(|e| err(e.to_string()))?;
-        let reader = std::io::BufReader::new(file);
-        let opened = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            vdb_rs::VdbReader::new(reader)
-        }));
-        let mut vdb = match opened {
-            Ok(Ok(v)) => v,
-            Ok(Err(e)) => return Err(err(format!("cannot read the file header: {e}"))),
-            Err(_) => {
-                return Err(err("cannot read the file header (corrupt or unsupported)".into()));
-            }
-        };
-        let names = vdb.available_grids();
-        if (vdb.header.grid_count as usize) > names.len() {
-            return Err(err(format!(
-                "{} grids but only {} distinct names: two grids share a name, and vdb-rs would \
-                 keep only one; rename them",
-                vdb.header.grid_count,
-                names.len()
-            )));
-        }
-        // OpenVDB writes grids that share a name as NAME\x1e0, NAME\x1e1, …; vdb-rs does not
-        // strip the suffix.
-        let suffixed: Vec<&String> = names
-            .iter()
-            .filter(|n| n.split('\u{1e}').next() == Some(name) && n.contains('\u{1e}'))
-            .collect();
-        if !suffixed.is_empty() {
-            return Err(err(format!(
-                "{} grids share the name `{name}`; rename them so that the grid to render is unique",
-                suffixed.len()
-            )));
-        }
-        let Some(gd) = vdb.grid_descriptors.get(name).cloned() else {
-            let mut names = names;
-            names.sort();
-            return Err(err(format!("no grid named `{name}` (the file has {names:?})")));
-        };
-        if gd.meta_data.is_half_float() || gd.grid_type.ends_with("_HalfFloat") {
-            return Err(err(format!(
-                "grid `{name}` is stored as 16-bit half floats, which vdb-rs 0.6 cannot read \
-                 (it aborts on compressed half-float data); save it with full floats \
-                 (pyopenvdb: grid.saveFloatAsHalf = False)"
-            )));
-        }
-        if gd.grid_type != "Tree_float_5_4_3" {
-            return Err(err(format!(
-                "grid `{name}` is of type {}, not a float grid (Tree_float_5_4_3)",
-                gd.grid_type
-            )));
-        }
-        if !gd.instance_parent.is_empty() {
-            return Err(err(format!(
-                "grid `{name}` is an instance of another grid; not supported"
-            )));
-        }
-        // The transform is serialised between the grid's start and its data blocks.
-        let end = gd.block_pos.min(len);
-        if gd.grid_pos >= end {
-            return Err(err(format!("grid `{name}`: corrupt grid offsets")));
-        }
-        let mut head = vec![0u8; (end - gd.grid_pos).min(64 << 20) as usize];
-        {
-            let mut f = std::fs::File::open(path)
-                .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
-            f.seek(SeekFrom::Start(gd.grid_pos)).map_err(|e| err(e.to_string()))?;
-            f.read_exact(&mut head)
-                .map_err(|_| err(format!("grid `{name}`: file is truncated")))?;
-        }
-        match find_map_name(&head).as_deref() {
-            Some("UniformScaleMap" | "UniformScaleTranslateMap" | "ScaleTranslateMap") => {}
-            Some(other) => {
-                return Err(err(format!(
-                    "grid `{name}` has an `{other}` transform; haze reads uniform-scale and \
-                     scale-translate maps only (resample the grid, or place it with the medium's \
-                     `transform`)"
-                )));
-            }
-            None => return Err(err(format!("grid `{name}`: no transform found (corrupt file?)"))),
-        }
-        let read =
-            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb.read_grid::<f32>(name)));
-        let grid = match read {
-            Ok(Ok(g)) => g,
-            Ok(Err(e)) => return Err(err(format!("grid `{name}`: {e} (truncated or corrupt?)"))),
-            Err(_) => return Err(err(format!("grid `{name}`: corrupt data (the reader failed)"))),
-        };
-        // vdb-rs uses its own glam version: copy the components.
-        let (translation, voxel_size) = match &grid.transform {
-            vdb_rs::Map::UniformScaleMap { voxel_size: v, .. } => ([0.0; 3], [v.x, v.y, v.z]),
-            vdb_rs::Map::ScaleTranslateMap { translation: t, voxel_size: v, .. } => {
-                ([t.x, t.y, t.z], [v.x, v.y, v.z])
-            }
-        };
-        let translation = Vec3::from(translation.map(|x| x as f32));
-        let voxel_size = Vec3::from(voxel_size.map(|x| x as f32));
-        if !(voxel_size.min_element() > 0.0 && voxel_size.is_finite() && translation.is_finite()) {
-            return Err(err(format!("grid `{name}`: invalid voxel size {voxel_size}")));
-        }
-        // Gather voxels and tiles: (position of the first voxel, edge length in voxels, value).
-        let mut items: Vec<(IVec3, i32, f32)> = Vec::new();
-        let mut counted: u64 = 0;
-        for (p, v, level) in grid.iter() {
-            let edge = level.scale() as i32;
-            let p = IVec3::new(p.x as i32, p.y as i32, p.z as i32);
-            counted += (edge as u64).pow(3);
-            items.push((p, edge, v));
-        }
-        let expected = match gd.meta_data.0.get("file_voxel_count") {
-            Some(vdb_rs::MetadataValue::I64(n)) => Some(*n as u64),
-            _ => None,
-        };
-        if let Some(n) = expected {
-            if n != counted {
-                return Err(err(format!(
-                    "grid `{name}`: the file has {n} active voxels but vdb-rs 0.6 returned \
-                     {counted}; it drops root-level tiles (active regions of 4096³ voxels); \
-                     store such regions as voxels"
-                )));
-            }
-        }
-        if items.is_empty() {
-            return Err(err(format!("grid `{name}` has no active voxels")));
-        }
-        let lo = items.iter().fold(IVec3::MAX, |a, (p, _, _)| a.min(*p));
-        let hi = items.iter().fold(IVec3::MIN, |a, (p, e, _)| a.max(*p + IVec3::splat(*e - 1)));
-        // In 64 bits: far-apart voxels would overflow i32 extents and their u64 product.
-        let extent = (hi.as_i64vec3() - lo.as_i64vec3()) + glam::I64Vec3::ONE;
-        let total = (extent.x as u128) * (extent.y as u128) * (extent.z as u128);
-        if total > MAX_VOXELS as u128 {
-            return Err(err(format!(
-                "grid `{name}` spans {}×{}×{} voxels, more than haze's dense limit of {MAX_VOXELS}",
-                extent.x, extent.y, extent.z
-            )));
-        }
-        let dims = extent.as_ivec3();
-        let total = total as u64;
-        let mut data = vec![0.0f32; total as usize];
-        let mut max_density = 0.0f32;
-        for (p, edge, v) in items {
-            if !v.is_finite() || v < 0.0 {
-                return Err(err(format!(
-                    "grid `{name}` has a density of {v} at index {p}; densities must be finite and \
-                     non-negative"
-                )));
-            }
-            max_density = max_density.max(v);
-            for z in 0..edge {
-                for y in 0..edge {
-                    for x in 0..edge {
-                        let q = p + IVec3::new(x, y, z) - lo;
-                        data[(q.x + dims.x * (q.y + dims.y * q.z)) as usize] = v;
-                    }
-                }
-            }
-        }
-        Ok(DensityGrid { origin: lo, dims, data, translation, voxel_size, max_density })
+        let (mut vdb, len) = open(path)?;
+        check_names(&vdb, path, name)?;
+        let gd = check_grid(&vdb, path, name, len)?;
+        let (items, translation, voxel_size) = read_voxels(&mut vdb, &gd, path, name)?;
+        densify(items, translation, voxel_size, path, name)
     }
 
     /// Density at index `i` (zero outside the stored box).
@@ -281,6 +121,218 @@ impl DensityGrid {
         }
         d
     }
+}
+
+/// An OpenVDB reader over the file at `path`, and the file's length.
+fn open(path: &Path) -> Result<(vdb_rs::VdbReader<std::io::BufReader<std::fs::File>>, u64)> {
+    let err = |m: String| volume_error(path, m);
+    let mut file = std::fs::File::open(path)
+        .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
+    let len = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let mut magic = [0u8; 8];
+    if file.read_exact(&mut magic).is_err() || magic[..4] != [0x20, 0x42, 0x44, 0x56] {
+        return Err(err("not an OpenVDB file (bad magic number)".into()));
+    }
+    file.seek(SeekFrom::Start(0)).map_err(|e| err(e.to_string()))?;
+    let reader = std::io::BufReader::new(file);
+    let opened =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb_rs::VdbReader::new(reader)));
+    let vdb = match opened {
+        Ok(Ok(v)) => v,
+        Ok(Err(e)) => return Err(err(format!("cannot read the file header: {e}"))),
+        Err(_) => {
+            return Err(err("cannot read the file header (corrupt or unsupported)".into()));
+        }
+    };
+    Ok((vdb, len))
+}
+
+/// Refuses grids that share a name (vdb-rs would keep only one), and names suffixed by OpenVDB
+/// for that reason.
+fn check_names<R: Read + Seek>(vdb: &vdb_rs::VdbReader<R>, path: &Path, name: &str) -> Result<()> {
+    let err = |m: String| volume_error(path, m);
+    let names = vdb.available_grids();
+    if (vdb.header.grid_count as usize) > names.len() {
+        return Err(err(format!(
+            "{} grids but only {} distinct names: two grids share a name, and vdb-rs would \
+             keep only one; rename them",
+            vdb.header.grid_count,
+            names.len()
+        )));
+    }
+    // OpenVDB writes grids that share a name as NAME\x1e0, NAME\x1e1, …; vdb-rs does not
+    // strip the suffix.
+    let suffixed: Vec<&String> = names
+        .iter()
+        .filter(|n| n.split('\u{1e}').next() == Some(name) && n.contains('\u{1e}'))
+        .collect();
+    if !suffixed.is_empty() {
+        return Err(err(format!(
+            "{} grids share the name `{name}`; rename them so that the grid to render is unique",
+            suffixed.len()
+        )));
+    }
+    Ok(())
+}
+
+/// The descriptor of float grid `name`, refused if vdb-rs 0.6 would abort on it or misread it
+/// (half floats, other tree types, instances, transforms other than scale and translation).
+fn check_grid<R: Read + Seek>(
+    vdb: &vdb_rs::VdbReader<R>,
+    path: &Path,
+    name: &str,
+    len: u64,
+) -> Result<vdb_rs::GridDescriptor> {
+    let err = |m: String| volume_error(path, m);
+    let Some(gd) = vdb.grid_descriptors.get(name).cloned() else {
+        let mut names = vdb.available_grids();
+        names.sort();
+        return Err(err(format!("no grid named `{name}` (the file has {names:?})")));
+    };
+    if gd.meta_data.is_half_float() || gd.grid_type.ends_with("_HalfFloat") {
+        return Err(err(format!(
+            "grid `{name}` is stored as 16-bit half floats, which vdb-rs 0.6 cannot read \
+             (it aborts on compressed half-float data); save it with full floats \
+             (pyopenvdb: grid.saveFloatAsHalf = False)"
+        )));
+    }
+    if gd.grid_type != "Tree_float_5_4_3" {
+        return Err(err(format!(
+            "grid `{name}` is of type {}, not a float grid (Tree_float_5_4_3)",
+            gd.grid_type
+        )));
+    }
+    if !gd.instance_parent.is_empty() {
+        return Err(err(format!("grid `{name}` is an instance of another grid; not supported")));
+    }
+    // The transform is serialised between the grid's start and its data blocks.
+    let end = gd.block_pos.min(len);
+    if gd.grid_pos >= end {
+        return Err(err(format!("grid `{name}`: corrupt grid offsets")));
+    }
+    let mut head = vec![0u8; (end - gd.grid_pos).min(64 << 20) as usize];
+    {
+        let mut f = std::fs::File::open(path)
+            .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
+        f.seek(SeekFrom::Start(gd.grid_pos)).map_err(|e| err(e.to_string()))?;
+        f.read_exact(&mut head).map_err(|_| err(format!("grid `{name}`: file is truncated")))?;
+    }
+    match find_map_name(&head).as_deref() {
+        Some("UniformScaleMap" | "UniformScaleTranslateMap" | "ScaleTranslateMap") => {}
+        Some(other) => {
+            return Err(err(format!(
+                "grid `{name}` has an `{other}` transform; haze reads uniform-scale and \
+                 scale-translate maps only (resample the grid, or place it with the medium's \
+                 `transform`)"
+            )));
+        }
+        None => return Err(err(format!("grid `{name}`: no transform found (corrupt file?)"))),
+    }
+    Ok(gd)
+}
+
+/// Active voxels and tiles: (position of the first voxel, edge length in voxels, value), with the
+/// grid's translation and voxel size.
+type Voxels = (Vec<(IVec3, i32, f32)>, Vec3, Vec3);
+
+/// Reads the grid's voxels and tiles (any panic of vdb-rs contained), checking that none is
+/// missing.
+fn read_voxels<R: Read + Seek>(
+    vdb: &mut vdb_rs::VdbReader<R>,
+    gd: &vdb_rs::GridDescriptor,
+    path: &Path,
+    name: &str,
+) -> Result<Voxels> {
+    let err = |m: String| volume_error(path, m);
+    let read =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb.read_grid::<f32>(name)));
+    let grid = match read {
+        Ok(Ok(g)) => g,
+        Ok(Err(e)) => return Err(err(format!("grid `{name}`: {e} (truncated or corrupt?)"))),
+        Err(_) => return Err(err(format!("grid `{name}`: corrupt data (the reader failed)"))),
+    };
+    // vdb-rs uses its own glam version: copy the components.
+    let (translation, voxel_size) = match &grid.transform {
+        vdb_rs::Map::UniformScaleMap { voxel_size: v, .. } => ([0.0; 3], [v.x, v.y, v.z]),
+        vdb_rs::Map::ScaleTranslateMap { translation: t, voxel_size: v, .. } => {
+            ([t.x, t.y, t.z], [v.x, v.y, v.z])
+        }
+    };
+    let translation = Vec3::from(translation.map(|x| x as f32));
+    let voxel_size = Vec3::from(voxel_size.map(|x| x as f32));
+    if !(voxel_size.min_element() > 0.0 && voxel_size.is_finite() && translation.is_finite()) {
+        return Err(err(format!("grid `{name}`: invalid voxel size {voxel_size}")));
+    }
+    // Gather voxels and tiles: (position of the first voxel, edge length in voxels, value).
+    let mut items: Vec<(IVec3, i32, f32)> = Vec::new();
+    let mut counted: u64 = 0;
+    for (p, v, level) in grid.iter() {
+        let edge = level.scale() as i32;
+        let p = IVec3::new(p.x as i32, p.y as i32, p.z as i32);
+        counted += (edge as u64).pow(3);
+        items.push((p, edge, v));
+    }
+    let expected = match gd.meta_data.0.get("file_voxel_count") {
+        Some(vdb_rs::MetadataValue::I64(n)) => Some(*n as u64),
+        _ => None,
+    };
+    if let Some(n) = expected {
+        if n != counted {
+            return Err(err(format!(
+                "grid `{name}`: the file has {n} active voxels but vdb-rs 0.6 returned \
+                 {counted}; it drops root-level tiles (active regions of 4096³ voxels); \
+                 store such regions as voxels"
+            )));
+        }
+    }
+    if items.is_empty() {
+        return Err(err(format!("grid `{name}` has no active voxels")));
+    }
+    Ok((items, translation, voxel_size))
+}
+
+/// Copies voxels and tiles into a dense array over their bounding box.
+fn densify(
+    items: Vec<(IVec3, i32, f32)>,
+    translation: Vec3,
+    voxel_size: Vec3,
+    path: &Path,
+    name: &str,
+) -> Result<DensityGrid> {
+    let err = |m: String| volume_error(path, m);
+    let lo = items.iter().fold(IVec3::MAX, |a, (p, _, _)| a.min(*p));
+    let hi = items.iter().fold(IVec3::MIN, |a, (p, e, _)| a.max(*p + IVec3::splat(*e - 1)));
+    // In 64 bits: far-apart voxels would overflow i32 extents and their u64 product.
+    let extent = (hi.as_i64vec3() - lo.as_i64vec3()) + glam::I64Vec3::ONE;
+    let total = (extent.x as u128) * (extent.y as u128) * (extent.z as u128);
+    if total > MAX_VOXELS as u128 {
+        return Err(err(format!(
+            "grid `{name}` spans {}×{}×{} voxels, more than haze's dense limit of {MAX_VOXELS}",
+            extent.x, extent.y, extent.z
+        )));
+    }
+    let dims = extent.as_ivec3();
+    let total = total as u64;
+    let mut data = vec![0.0f32; total as usize];
+    let mut max_density = 0.0f32;
+    for (p, edge, v) in items {
+        if !v.is_finite() || v < 0.0 {
+            return Err(err(format!(
+                "grid `{name}` has a density of {v} at index {p}; densities must be finite and \
+                 non-negative"
+            )));
+        }
+        max_density = max_density.max(v);
+        for z in 0..edge {
+            for y in 0..edge {
+                for x in 0..edge {
+                    let q = p + IVec3::new(x, y, z) - lo;
+                    data[(q.x + dims.x * (q.y + dims.y * q.z)) as usize] = v;
+                }
+            }
+        }
+    }
+    Ok(DensityGrid { origin: lo, dims, data, translation, voxel_size, max_density })
 }
 
 #[cfg(test)]

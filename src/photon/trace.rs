@@ -6,11 +6,13 @@
 //! same whatever the thread count.
 
 use super::{Photon, VolumePhoton};
+use crate::accel::Hit;
 use crate::math::{Rgb, offset_origin};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
 use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -48,6 +50,29 @@ fn roulette(before: Rgb, after: Rgb, u: f32) -> Option<Rgb> {
     if q > 0.0 && u < q { Some(after / q) } else { None }
 }
 
+/// A light path in flight.
+struct LightPath {
+    s: Sampler,
+    o: Vec3,
+    d: Vec3,
+    beta: Rgb,
+    medium: Option<u32>,
+    /// Scattering events so far (medium collisions and surface scatterings; pass-through
+    /// interfaces are not events), and pass-through crossings.
+    bounces: u32,
+    crossings: u32,
+}
+
+/// What the photon did at a step.
+enum Step {
+    /// Goes on from its new origin.
+    Continue,
+    /// Reached the surface of the hit (or nothing) without a collision.
+    Surface,
+    /// The path ends.
+    Stop,
+}
+
 /// Traces one light path, storing its photons in `out`.
 fn trace_path(
     scene: &Scene,
@@ -59,86 +84,109 @@ fn trace_path(
     let mut s = Sampler::new(pass.seed, Purpose::Photon, pass.iteration, index);
     let (li, p_light) = lights.pick(s.next_f32());
     let e = scene.lights[li].sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
-    let mut beta: Rgb = e.beta / p_light;
+    let beta: Rgb = e.beta / p_light;
     if beta.max_element() <= 0.0 {
         return;
     }
-    let mut medium = scene.light_media[li];
-    let mut o = if e.n == glam::Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
-    let mut d = e.d;
-    // Scattering events so far (medium collisions and surface scatterings; pass-through
-    // interfaces are not events), and pass-through crossings.
-    let (mut bounces, mut crossings) = (0u32, 0u32);
+    let o = if e.n == Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
+    let medium = scene.light_media[li];
+    let mut path = LightPath { s, o, d: e.d, beta, medium, bounces: 0, crossings: 0 };
     loop {
-        let hit = scene.intersect(o, d, f32::INFINITY);
-        if let Some(id) = medium {
-            let m = &scene.media[id as usize];
-            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-            let flight = m.sample_free_flight(o, d, t_max, &mut s);
-            if flight.scattered {
-                let p = o + d * flight.t;
-                beta *= flight.weight;
-                let sigma_s = m.sigma_s(p);
-                // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s.
-                // Where σ_s = 0 the photon could only ever be weighted by zero: skip it.
-                if sigma_s.max_element() > 0.0 {
-                    out.volume.push(VolumePhoton { p, d, beta, medium: id });
-                }
-                bounces += 1;
-                if bounces >= pass.max_depth {
-                    return;
-                }
-                let ps = m.phase().sample(d, s.next_2d());
-                // Phase sampling is exact, so the scattering weight is σ_s alone.
-                let Some(b) = roulette(beta, beta * sigma_s, s.next_f32()) else {
-                    return;
-                };
-                beta = b;
-                o = p;
-                d = ps.d_out;
-                continue;
-            }
-            beta *= flight.weight;
-            if beta.max_element() <= 0.0 {
-                return;
-            }
+        let hit = scene.intersect(path.o, path.d, f32::INFINITY);
+        match collide(scene, pass, &mut path, hit.as_ref(), out) {
+            Step::Continue => continue,
+            Step::Stop => return,
+            Step::Surface => {}
         }
         let Some(hit) = hit else { return };
-        let wo = -d;
-        let shape = &scene.shapes[hit.tag as usize];
-        let material = &scene.materials[shape.material as usize];
-        if *material == Material::Interface {
-            // Index-matched: the photon goes straight on into the medium on the far side.
-            crossings += 1;
-            if crossings > MAX_CROSSINGS {
-                return;
-            }
-            medium = shape.medium_after(medium, wo, d, hit.ng);
-            o = offset_origin(hit.p, hit.ng, d);
-            continue;
-        }
-        if material.is_diffuse() {
-            // Power convention (see `Photon`): store the path throughput as it arrives.
-            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-            out.surface.push(Photon { p: hit.p, n, beta });
-        }
-        bounces += 1;
-        if bounces >= pass.max_depth {
+        if let Step::Stop = at_surface(scene, pass, &mut path, &hit, out) {
             return;
         }
-        let u = s.next_2d();
-        let u_lobe = s.next_f32();
-        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance) else {
-            return;
-        };
-        let Some(b) = roulette(beta, beta * bs.weight, s.next_f32()) else {
-            return;
-        };
-        beta = b;
-        medium = shape.medium_after(medium, wo, bs.wi, hit.ng);
-        o = offset_origin(hit.p, hit.ng, bs.wi);
-        d = bs.wi;
     }
+}
+
+/// The segment up to `hit` in the path's medium, if it is in one: a collision stores a volume
+/// photon and scatters the path.
+fn collide(
+    scene: &Scene,
+    pass: &PhotonPass,
+    path: &mut LightPath,
+    hit: Option<&Hit>,
+    out: &mut Photons,
+) -> Step {
+    let Some(id) = path.medium else { return Step::Surface };
+    let m = &scene.media[id as usize];
+    let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+    let (o, d) = (path.o, path.d);
+    let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
+    path.beta *= flight.weight;
+    if !flight.scattered {
+        return if path.beta.max_element() <= 0.0 { Step::Stop } else { Step::Surface };
+    }
+    let p = o + d * flight.t;
+    let sigma_s = m.sigma_s(p);
+    // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s. Where
+    // σ_s = 0 the photon could only ever be weighted by zero: skip it.
+    if sigma_s.max_element() > 0.0 {
+        out.volume.push(VolumePhoton { p, d, beta: path.beta, medium: id });
+    }
+    path.bounces += 1;
+    if path.bounces >= pass.max_depth {
+        return Step::Stop;
+    }
+    let ps = m.phase().sample(d, path.s.next_2d());
+    // Phase sampling is exact, so the scattering weight is σ_s alone.
+    let Some(b) = roulette(path.beta, path.beta * sigma_s, path.s.next_f32()) else {
+        return Step::Stop;
+    };
+    (path.beta, path.o, path.d) = (b, p, ps.d_out);
+    Step::Continue
+}
+
+/// The path reached a surface: crossed if pass-through, else a diffuse surface stores a photon,
+/// and the path scatters.
+fn at_surface(
+    scene: &Scene,
+    pass: &PhotonPass,
+    path: &mut LightPath,
+    hit: &Hit,
+    out: &mut Photons,
+) -> Step {
+    let (wo, d) = (-path.d, path.d);
+    let shape = &scene.shapes[hit.tag as usize];
+    let material = &scene.materials[shape.material as usize];
+    if *material == Material::Interface {
+        // Index-matched: the photon goes straight on into the medium on the far side.
+        path.crossings += 1;
+        if path.crossings > MAX_CROSSINGS {
+            return Step::Stop;
+        }
+        path.medium = shape.medium_after(path.medium, wo, d, hit.ng);
+        path.o = offset_origin(hit.p, hit.ng, d);
+        return Step::Continue;
+    }
+    if material.is_diffuse() {
+        // Power convention (see `Photon`): store the path throughput as it arrives.
+        let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+        out.surface.push(Photon { p: hit.p, n, beta: path.beta });
+    }
+    path.bounces += 1;
+    if path.bounces >= pass.max_depth {
+        return Step::Stop;
+    }
+    let u = path.s.next_2d();
+    let u_lobe = path.s.next_f32();
+    let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance) else {
+        return Step::Stop;
+    };
+    let Some(b) = roulette(path.beta, path.beta * bs.weight, path.s.next_f32()) else {
+        return Step::Stop;
+    };
+    path.beta = b;
+    path.medium = shape.medium_after(path.medium, wo, bs.wi, hit.ng);
+    path.o = offset_origin(hit.p, hit.ng, bs.wi);
+    path.d = bs.wi;
+    Step::Continue
 }
 
 /// Runs the photon pass into `out` (cleared first). Returns `false` if `stop` was raised before

@@ -322,6 +322,40 @@ impl SceneBuilder {
             Some(m) => Some(self.medium_id("camera.medium".into(), m)?.0),
             None => None,
         };
+        let (prims, mut lights, mut light_media) = self.primitives_and_area_lights()?;
+        // obvhs asserts on some degenerate inputs; contain that rather than crash.
+        let accel = std::panic::catch_unwind(|| Accel::build(&prims)).map_err(|_| {
+            invalid("shapes".into(), "the geometry could not be organised into a BVH (degenerate?)")
+        })?;
+        let (lo, hi) = self.bounds(&prims);
+        let (center, radius) = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3) * 1.01);
+        for (l, medium) in &self.lights {
+            light_media.push(*medium);
+            lights.push(delta_light(l, center, radius));
+        }
+        let scene = Scene {
+            camera,
+            materials: self.materials.into_iter().map(|(_, m)| m).collect(),
+            shapes: self.shapes.into_iter().map(|(s, _)| s).collect(),
+            lights,
+            light_media,
+            medium_names: self.media.iter().map(|(n, _)| n.clone()).collect(),
+            media: self.media.into_iter().map(|(_, m)| m).collect(),
+            camera_medium,
+            settings: self.settings,
+            bounds: (lo, hi),
+            source: self.source,
+            accel,
+        };
+        debug_assert_eq!(scene.lights.len(), scene.light_media.len());
+        scene.check_media()?;
+        Ok(scene)
+    }
+
+    /// The BVH's primitives (degenerate triangles dropped), and an area light for every emitting
+    /// shape, with the medium it emits into.
+    #[allow(clippy::type_complexity)]
+    fn primitives_and_area_lights(&self) -> Result<(Vec<Primitive>, Vec<Light>, Vec<Option<u32>>)> {
         let mut prims = Vec::new();
         let mut lights = Vec::new();
         let mut light_media = Vec::new();
@@ -344,43 +378,19 @@ impl SceneBuilder {
                 }
             }
             if let Some(radiance) = shape.emission.filter(|e| e.max_element() > 0.0) {
-                let emitter = match geometry {
-                    Geometry::Mesh(mesh) => {
-                        let triangles: Vec<[Vec3; 3]> = mesh
-                            .triangle_vertices()
-                            .filter(|[a, b, c]| (*b - *a).cross(*c - *a).length() > 0.0)
-                            .collect();
-                        let mut total = 0.0;
-                        let cdf = triangles
-                            .iter()
-                            .map(|[a, b, c]| {
-                                total += 0.5 * (*b - *a).cross(*c - *a).length();
-                                total
-                            })
-                            .collect();
-                        if triangles.is_empty() {
-                            return Err(invalid(
-                                format!("{}.emission", shape.label),
-                                "the emitting mesh has no area",
-                            ));
-                        }
-                        Emitter::Triangles { triangles, cdf }
-                    }
-                    Geometry::Sphere { center, radius } => {
-                        Emitter::Sphere { center: *center, radius: *radius }
-                    }
-                };
+                let emitter = emitter(geometry, &shape.label)?;
                 lights.push(Light::Area { shape: tag, radiance, emitter });
                 light_media.push(shape.media.and_then(|m| m.exterior));
             }
         }
-        // obvhs asserts on some degenerate inputs; contain that rather than crash.
-        let accel = std::panic::catch_unwind(|| Accel::build(&prims)).map_err(|_| {
-            invalid("shapes".into(), "the geometry could not be organised into a BVH (degenerate?)")
-        })?;
+        Ok((prims, lights, light_media))
+    }
+
+    /// Bounds of the geometry and of the point and spot lights.
+    fn bounds(&self, prims: &[Primitive]) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for p in &prims {
+        for p in prims {
             let b = obvhs::Boundable::aabb(p);
             lo = lo.min(b.min.into());
             hi = hi.max(b.max.into());
@@ -395,50 +405,57 @@ impl SceneBuilder {
             lo = Vec3::splat(-1.0);
             hi = Vec3::splat(1.0);
         }
-        let (center, radius) = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3) * 1.01);
-        for (l, medium) in &self.lights {
-            light_media.push(*medium);
-            lights.push(match *l {
-                LightKind::Point { position, power } => {
-                    Light::Point { position, intensity: power / (4.0 * std::f32::consts::PI) }
-                }
-                LightKind::Spot { position, look_at, power, cone_angle, falloff_start } => {
-                    let cos_max = cone_angle.to_radians().cos();
-                    let cos_start = falloff_start.unwrap_or(cone_angle).to_radians().cos();
-                    let omega = light::spot_solid_angle(cos_max, cos_start);
-                    Light::Spot {
-                        position,
-                        frame: crate::math::Frame::new((look_at - position).normalize()),
-                        intensity: power / omega,
-                        cos_max,
-                        cos_start,
-                    }
-                }
-                LightKind::Directional { direction, irradiance } => Light::Directional {
-                    direction: direction.normalize(),
-                    irradiance,
-                    center,
-                    radius,
-                },
-            });
+        (lo, hi)
+    }
+}
+
+/// The surface of an emitting shape, sampled by area.
+fn emitter(geometry: &Geometry, label: &str) -> Result<Emitter> {
+    Ok(match geometry {
+        Geometry::Mesh(mesh) => {
+            let triangles: Vec<[Vec3; 3]> = mesh
+                .triangle_vertices()
+                .filter(|[a, b, c]| (*b - *a).cross(*c - *a).length() > 0.0)
+                .collect();
+            let mut total = 0.0;
+            let cdf = triangles
+                .iter()
+                .map(|[a, b, c]| {
+                    total += 0.5 * (*b - *a).cross(*c - *a).length();
+                    total
+                })
+                .collect();
+            if triangles.is_empty() {
+                return Err(invalid(format!("{label}.emission"), "the emitting mesh has no area"));
+            }
+            Emitter::Triangles { triangles, cdf }
         }
-        let scene = Scene {
-            camera,
-            materials: self.materials.into_iter().map(|(_, m)| m).collect(),
-            shapes: self.shapes.into_iter().map(|(s, _)| s).collect(),
-            lights,
-            light_media,
-            medium_names: self.media.iter().map(|(n, _)| n.clone()).collect(),
-            media: self.media.into_iter().map(|(_, m)| m).collect(),
-            camera_medium,
-            settings: self.settings,
-            bounds: (lo, hi),
-            source: self.source,
-            accel,
-        };
-        debug_assert_eq!(scene.lights.len(), scene.light_media.len());
-        scene.check_media()?;
-        Ok(scene)
+        Geometry::Sphere { center, radius } => Emitter::Sphere { center: *center, radius: *radius },
+    })
+}
+
+/// A described point, spot or directional light, for a scene whose bounding sphere has `center`
+/// and `radius` (a directional light covers it).
+fn delta_light(l: &LightKind, center: Vec3, radius: f32) -> Light {
+    match *l {
+        LightKind::Point { position, power } => {
+            Light::Point { position, intensity: power / (4.0 * std::f32::consts::PI) }
+        }
+        LightKind::Spot { position, look_at, power, cone_angle, falloff_start } => {
+            let cos_max = cone_angle.to_radians().cos();
+            let cos_start = falloff_start.unwrap_or(cone_angle).to_radians().cos();
+            let omega = light::spot_solid_angle(cos_max, cos_start);
+            Light::Spot {
+                position,
+                frame: crate::math::Frame::new((look_at - position).normalize()),
+                intensity: power / omega,
+                cos_max,
+                cos_start,
+            }
+        }
+        LightKind::Directional { direction, irradiance } => {
+            Light::Directional { direction: direction.normalize(), irradiance, center, radius }
+        }
     }
 }
 

@@ -300,6 +300,43 @@ fn array<'a, 'i>(v: &'a Value<'i>, key: &str) -> Result<&'a [Value<'i>], FormatE
     }
 }
 
+/// How a table is read: `kind` checks its `type` against a list, the table, its key.
+type KindOf = for<'a> fn(&'a Value<'_>, &str, &[&str]) -> Result<&'a str, FormatError>;
+
+/// The tables of the section `[section.NAME]`, each read by `parse(kind, table, key)`, with its name
+/// and span.
+fn named<T>(
+    root: &DeTable<'_>,
+    section: &str,
+    parse: impl Fn(KindOf, &Value<'_>, &str) -> Result<T, FormatError>,
+) -> Result<Vec<(String, T, std::ops::Range<usize>)>, FormatError> {
+    let Some(m) = root.get(section) else { return Ok(Vec::new()) };
+    let table = m.get_ref().as_table().ok_or_else(|| {
+        error(section, m.span().start, format!("expected a table of named {section}"))
+    })?;
+    let mut out = Vec::new();
+    for (name, v) in table.iter() {
+        let name = name.get_ref().to_string();
+        let def = parse(kind, v, &format!("{section}.{name}"))?;
+        out.push((name, def, v.span()));
+    }
+    Ok(out)
+}
+
+/// The tables of the array `[[section]]`, each read by `parse(kind, table, key)`, with its span.
+fn listed<T>(
+    root: &DeTable<'_>,
+    section: &str,
+    parse: impl Fn(KindOf, &Value<'_>, &str) -> Result<T, FormatError>,
+) -> Result<Vec<(T, std::ops::Range<usize>)>, FormatError> {
+    let Some(s) = root.get(section) else { return Ok(Vec::new()) };
+    let mut out = Vec::new();
+    for (i, v) in array(s, section)?.iter().enumerate() {
+        out.push((parse(kind, v, &format!("{section}[{i}]"))?, v.span()));
+    }
+    Ok(out)
+}
+
 /// Parses scene text into [`SceneFile`].
 pub fn read(text: &str) -> Result<SceneFile, FormatError> {
     let root = DeTable::parse(text).map_err(|e| {
@@ -338,67 +375,38 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         Some(r) => Some((typed::<RenderOptions>(r, "render")?, r.span())),
         None => None,
     };
-    let mut materials = Vec::new();
-    if let Some(m) = root.get("materials") {
-        let table = m.get_ref().as_table().ok_or_else(|| {
-            error("materials", m.span().start, "expected a table of named materials")
-        })?;
-        for (name, v) in table.iter() {
-            let name = name.get_ref().to_string();
-            let key = format!("materials.{name}");
-            let def = match kind(v, &key, &["diffuse", "mirror", "dielectric", "interface"])? {
-                "diffuse" => MaterialDef::Diffuse(typed(v, &key)?),
-                "mirror" => MaterialDef::Mirror(typed(v, &key)?),
-                "dielectric" => MaterialDef::Dielectric(typed(v, &key)?),
-                _ => {
-                    typed::<InterfaceDef>(v, &key)?;
-                    MaterialDef::Interface
-                }
-            };
-            materials.push((name, def, v.span()));
-        }
-    }
-    let mut media = Vec::new();
-    if let Some(m) = root.get("media") {
-        let table = m
-            .get_ref()
-            .as_table()
-            .ok_or_else(|| error("media", m.span().start, "expected a table of named media"))?;
-        for (name, v) in table.iter() {
-            let name = name.get_ref().to_string();
-            let key = format!("media.{name}");
-            let def = match kind(v, &key, &["homogeneous", "vdb"])? {
-                "homogeneous" => MediumDef::Homogeneous(typed(v, &key)?),
-                _ => MediumDef::Vdb(typed(v, &key)?),
-            };
-            media.push((name, def, v.span()));
-        }
-    }
-    let mut shapes = Vec::new();
-    if let Some(s) = root.get("shapes") {
-        for (i, v) in array(s, "shapes")?.iter().enumerate() {
-            let key = format!("shapes[{i}]");
-            let def = match kind(v, &key, &["rectangle", "box", "sphere", "mesh", "obj"])? {
-                "rectangle" => ShapeDef::Rectangle(typed(v, &key)?),
-                "box" => ShapeDef::Box(typed(v, &key)?),
-                "sphere" => ShapeDef::Sphere(typed(v, &key)?),
-                "mesh" => ShapeDef::Mesh(typed(v, &key)?),
-                _ => ShapeDef::Obj(typed(v, &key)?),
-            };
-            shapes.push((def, v.span()));
-        }
-    }
-    let mut lights = Vec::new();
-    if let Some(l) = root.get("lights") {
-        for (i, v) in array(l, "lights")?.iter().enumerate() {
-            let key = format!("lights[{i}]");
-            let def = match kind(v, &key, &["point", "spot", "directional"])? {
-                "point" => LightDef::Point(typed(v, &key)?),
-                "spot" => LightDef::Spot(typed(v, &key)?),
-                _ => LightDef::Directional(typed(v, &key)?),
-            };
-            lights.push((def, v.span()));
-        }
-    }
+    let materials = named(root, "materials", |kind, v, key| {
+        Ok(match kind(v, key, &["diffuse", "mirror", "dielectric", "interface"])? {
+            "diffuse" => MaterialDef::Diffuse(typed(v, key)?),
+            "mirror" => MaterialDef::Mirror(typed(v, key)?),
+            "dielectric" => MaterialDef::Dielectric(typed(v, key)?),
+            _ => {
+                typed::<InterfaceDef>(v, key)?;
+                MaterialDef::Interface
+            }
+        })
+    })?;
+    let media = named(root, "media", |kind, v, key| {
+        Ok(match kind(v, key, &["homogeneous", "vdb"])? {
+            "homogeneous" => MediumDef::Homogeneous(typed(v, key)?),
+            _ => MediumDef::Vdb(typed(v, key)?),
+        })
+    })?;
+    let shapes = listed(root, "shapes", |kind, v, key| {
+        Ok(match kind(v, key, &["rectangle", "box", "sphere", "mesh", "obj"])? {
+            "rectangle" => ShapeDef::Rectangle(typed(v, key)?),
+            "box" => ShapeDef::Box(typed(v, key)?),
+            "sphere" => ShapeDef::Sphere(typed(v, key)?),
+            "mesh" => ShapeDef::Mesh(typed(v, key)?),
+            _ => ShapeDef::Obj(typed(v, key)?),
+        })
+    })?;
+    let lights = listed(root, "lights", |kind, v, key| {
+        Ok(match kind(v, key, &["point", "spot", "directional"])? {
+            "point" => LightDef::Point(typed(v, key)?),
+            "spot" => LightDef::Spot(typed(v, key)?),
+            _ => LightDef::Directional(typed(v, key)?),
+        })
+    })?;
     Ok(SceneFile { camera: (camera_def, camera.span()), render, materials, media, shapes, lights })
 }

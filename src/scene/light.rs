@@ -482,6 +482,12 @@ mod tests {
                 let ls = rect.sample_li(at, s)?;
                 let pdf = ls.pdf.expect("area lights have a density");
                 assert!((pdf as f64 / rect_pdf(ls.wi) - 1.0).abs() < 1e-3);
+                // The light sampler's pdf_li agrees at the sampled point (the distance is
+                // shortened by 10⁻⁴), with the one light chosen with probability 1.
+                let to = at + ls.wi * (ls.dist / (1.0 - 1e-4));
+                let sampler = LightSampler::new(std::slice::from_ref(&rect), 1);
+                let cos_l = ls.wi.z;
+                assert!((sampler.pdf_li(0, at, to, cos_l) / pdf - 1.0).abs() < 1e-3);
                 assert!((ls.value.x as f64 - 2.0 / pdf as f64).abs() < 1e-3 * ls.value.x as f64);
                 Some(Sample::Direction(ls.wi))
             },

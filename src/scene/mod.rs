@@ -16,7 +16,7 @@ pub use describe::{
     GeometryDesc, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc, MediumId,
     MediumRef, ShapeDesc, Transform,
 };
-pub use material::Material;
+pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
 
 use crate::accel::{Accel, Hit};

@@ -1,6 +1,7 @@
 //! haze's integration tests, compiled as one binary with shared helpers in `common`.
 
 mod analytic;
+mod api;
 mod bad_scenes;
 mod cli;
 mod common;

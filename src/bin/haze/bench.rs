@@ -61,6 +61,19 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
     if timed == 0 {
         bail!("--iterations must be at least 2 for a benchmark (the first is a warm-up)");
     }
+    report(&path, &scene, &settings, pool.current_num_threads(), timed, &totals);
+    Ok(())
+}
+
+/// Prints the table of step times per iteration over `timed` iterations.
+fn report(
+    path: &std::path::Path,
+    scene: &haze::Scene,
+    settings: &haze::RenderSettings,
+    threads: usize,
+    timed: u64,
+    totals: &Totals,
+) {
     let media = scene.has_media() && settings.integrator == Integrator::PhotonMapping;
     let t = &totals.times;
     let per_it = |x: f64| x / timed as f64;
@@ -71,8 +84,7 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
     println!("scene: {}", path.display());
     println!(
         "threads: {}, iterations timed: {timed} (after 1 warm-up), photons/iteration: {}, resolution: {w}x{h}",
-        pool.current_num_threads(),
-        settings.photons
+        threads, settings.photons
     );
     println!("| step | per second | seconds per iteration |");
     println!("|---|---|---|");
@@ -125,5 +137,4 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
             "(build with `--features profile` to also measure the time spent in {estimate} estimates)"
         );
     }
-    Ok(())
 }
