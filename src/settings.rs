@@ -23,7 +23,7 @@
 //! radius_fraction = 0.01    # initial radius relative to the scene's bounding-box diagonal …
 //! # radius = 0.02           # … or absolute, in scene units (give one of the two)
 //! kernel = "epanechnikov"   # "constant", "epanechnikov" or "biweight"
-//! max_depth = 16            # maximum scattering events on light and eye paths (pass-through
+//! max_bounces = 64          # most scattering events on a whole light-to-camera path (pass-through
 //!                           # interfaces are not events)
 //! seed = 0
 //! volume_estimate = "beam"  # in-scattering estimate in media: "beam" or "point"
@@ -215,6 +215,14 @@ fn fraction(v: &f64) -> Result<(), String> {
     }
 }
 
+fn bounce_limit(v: &u32) -> Result<(), String> {
+    if (1..=u16::MAX as u32).contains(v) {
+        Ok(())
+    } else {
+        Err(format!("must lie in 1..={}, got {v}", u16::MAX))
+    }
+}
+
 fn dimension(v: &u32) -> Result<(), String> {
     if (1..=3).contains(v) { Ok(()) } else { Err(format!("must be 1, 2 or 3, got {v}")) }
 }
@@ -353,10 +361,12 @@ render_settings! {
     [short = 'k', long, value_name = "KERNEL"]
     kernel: Kernel = Kernel::Epanechnikov, any;
 
-    /// Most scattering events on a light or eye path: medium collisions and surface
-    /// scatterings; crossing a pass-through interface is not one.
-    [long, value_name = "D"]
-    max_depth: u32 = 16, at_least_one;
+    /// Most scattering events along a whole path from the light to the camera — medium
+    /// collisions and surface scatterings, counted as pbrt-v4, Mitsuba 3 and Tungsten count them
+    /// (crossing a pass-through interface is not one): every mode renders the same image under
+    /// the same limit. 1 is single scattering.
+    [long, value_name = "B"]
+    max_bounces: u32 = 64, bounce_limit;
 
     /// Seed of every random stream: the same scene, seed and iteration count give the same
     /// image, whatever the number of threads.

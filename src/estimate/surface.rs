@@ -7,8 +7,8 @@
 
 use super::kernel::Kernel;
 use crate::math::Rgb;
-use crate::photon::Photon;
 use crate::photon::map::PhotonGrid;
+use crate::photon::{BounceRange, Photon};
 use glam::Vec3;
 
 /// Photons whose surface normal deviates more than this cosine from the query's are ignored, so
@@ -28,11 +28,19 @@ pub struct Gather {
 
 /// Reflected radiance at `p` (normal `n`, on the viewer's side) of a diffuse surface with BRDF
 /// value `f` (albedo / π), from the photons in `map`.
-pub fn surface_radiance(map: &PhotonGrid<Photon>, p: Vec3, n: Vec3, f: Rgb, g: &Gather) -> Rgb {
+/// Only photons whose light paths had a number of events in `bounces` take part.
+pub fn surface_radiance(
+    map: &PhotonGrid<Photon>,
+    p: Vec3,
+    n: Vec3,
+    f: Rgb,
+    g: &Gather,
+    bounces: BounceRange,
+) -> Rgb {
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;
     map.query(p, g.radius, |ph, d2| {
-        if ph.n.dot(n) > NORMAL_COS {
+        if ph.n.dot(n) > NORMAL_COS && bounces.contains(ph.bounces) {
             sum += ph.beta * g.kernel.eval(d2 * inv_r2, 2);
         }
     });

@@ -9,15 +9,16 @@
 //!
 //!   L_s(x, −ω) ≈ (1/M) σ_s(x) Σ_{p: ‖x − x_p‖ < r} f_p(ω_p, −ω) β_p K₃(‖x − x_p‖ / r) / r³
 //!
-//! Only photons of the segment's own medium take part. f_p takes directions of travel: the photon's
+//! Only photons of the segment's own medium take part, and only those whose light paths had a
+//! number of scattering events in the given range. f_p takes directions of travel: the photon's
 //! ω_p and −ω, the direction towards the eye.
 
 use super::surface::Gather;
 use crate::math::Rgb;
 use crate::medium::{Medium, SegmentTransmittance};
-use crate::photon::VolumePhoton;
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
+use crate::photon::{BounceRange, VolumePhoton};
 use glam::Vec3;
 
 /// A segment o + tω, 0 < t < `t_max`, of an eye path in a medium.
@@ -40,13 +41,14 @@ pub fn beam_radiance(
     segment: &EyeSegment,
     tr: &SegmentTransmittance,
     g: &Gather,
+    bounces: BounceRange,
 ) -> Rgb {
     let phase = medium.phase();
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;
     let EyeSegment { o, w, t_max } = *segment;
     map.query(o, w, t_max, |ph, t, d2| {
-        if ph.medium == id {
+        if ph.medium as u32 == id && bounces.contains(ph.bounces) {
             let k = g.kernel.eval(d2 * inv_r2, 2);
             // The beam map stores β·σ_s(x_p) as the photon's power.
             sum += ph.beta * tr.at(t) * (phase.eval(ph.d, -w) * k);
@@ -63,12 +65,13 @@ pub fn point_radiance(
     x: Vec3,
     w: Vec3,
     g: &Gather,
+    bounces: BounceRange,
 ) -> Rgb {
     let phase = medium.phase();
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;
     grid.query(x, g.radius, |ph, d2| {
-        if ph.medium == id {
+        if ph.medium as u32 == id && bounces.contains(ph.bounces) {
             sum += ph.beta * (phase.eval(ph.d, -w) * g.kernel.eval(d2 * inv_r2, 3));
         }
     });

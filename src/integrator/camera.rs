@@ -15,7 +15,7 @@ use crate::math::Rgb;
 use crate::medium::Medium;
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
-use crate::photon::{Photon, VolumePhoton};
+use crate::photon::{BounceRange, Photon, VolumePhoton};
 use crate::scene::Scene;
 use crate::scene::material::Material;
 use crate::settings::VolumeEstimate;
@@ -40,8 +40,8 @@ pub(crate) struct CameraPass {
     /// Iteration number (1-based).
     pub iteration: u64,
     /// Maximum scattering events per eye path (pass-through interfaces are not events): the path
-    /// follows at most `max_depth − 1` specular bounces.
-    pub max_depth: u32,
+    /// follows at most `max_bounces − 1` specular bounces.
+    pub max_bounces: u32,
     /// Surface density estimation.
     pub surface: Gather,
     /// Volume density estimation.
@@ -87,24 +87,25 @@ fn timed<T>(f: impl FnOnce() -> T) -> T {
 
 /// Radiance along one eye path for pixel (x, y).
 fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32) -> Rgb {
-    trace_eye(scene, maps, pass, x, y, |p, n, f, beta| {
-        beta * surface_radiance(maps.surface, p, n, f, &pass.surface)
+    trace_eye(scene, maps, pass, x, y, |p, n, f, beta, bounces| {
+        beta * surface_radiance(maps.surface, p, n, f, &pass.surface, bounces)
     })
 }
 
 /// Follows the eye path of pixel (x, y) and returns the radiance it collects, except that at the
 /// first diffuse surface (position p, normal n on the viewer's side, BRDF value f, path throughput
-/// β) the contribution is whatever `at_diffuse(p, n, f, β)` returns.
+/// β) the contribution is whatever `at_diffuse(p, n, f, β, bounces)` returns, `bounces` being the
+/// photons' events the bounce limit leaves room for.
 pub(crate) fn trace_eye(
     scene: &Scene,
     maps: &Maps,
     pass: &CameraPass,
     x: u32,
     y: u32,
-    at_diffuse: impl FnMut(Vec3, Vec3, Rgb, Rgb) -> Rgb,
+    at_diffuse: impl FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb,
 ) -> Rgb {
     let mut visitor = PhotonEye { maps, pass, at_diffuse };
-    walk_eye(scene, pass.seed, pass.iteration, [x, y], pass.max_depth, &mut visitor)
+    walk_eye(scene, pass.seed, pass.iteration, [x, y], pass.max_bounces, &mut visitor)
 }
 
 /// The photon mapper's eye path: volume estimates along segments in media, emitters counted in
@@ -115,7 +116,17 @@ struct PhotonEye<'a, F> {
     at_diffuse: F,
 }
 
-impl<F: FnMut(Vec3, Vec3, Rgb, Rgb) -> Rgb> EyeVisitor for PhotonEye<'_, F> {
+impl<F> PhotonEye<'_, F> {
+    /// The photons an estimate at the path's next vertex may gather: a photon of k events,
+    /// gathered there (one more event) after the path's specular bounces, keeps the whole path
+    /// within the bounce limit.
+    fn bounces(&self, path: &EyePath) -> BounceRange {
+        let room = path.max_bounces.saturating_sub(1 + path.depth);
+        BounceRange { min: 0, max: room.min(u16::MAX as u32) as u16 }
+    }
+}
+
+impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEye<'_, F> {
     fn medium(&mut self, path: &mut EyePath, m: &Medium, id: u32, t_max: f32) -> Next {
         let (o, d) = (path.o, path.d);
         match self.pass.estimate {
@@ -124,8 +135,10 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb) -> Rgb> EyeVisitor for PhotonEye<'_, F> {
                 // path's continuation.
                 let tr = m.segment(o, d, t_max, &mut path.s);
                 let segment = EyeSegment { o, w: d, t_max };
-                let (beams, volume) = (self.maps.volume_beams, &self.pass.volume);
-                path.l += path.beta * timed(|| beam_radiance(beams, m, id, &segment, &tr, volume));
+                let (beams, volume, bounces) =
+                    (self.maps.volume_beams, &self.pass.volume, self.bounces(path));
+                path.l += path.beta
+                    * timed(|| beam_radiance(beams, m, id, &segment, &tr, volume, bounces));
                 path.beta *= tr.at(t_max);
                 Next::Continue
             }
@@ -136,8 +149,10 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb) -> Rgb> EyeVisitor for PhotonEye<'_, F> {
                     return Next::Continue;
                 }
                 let x = o + d * flight.t;
-                let (points, volume) = (self.maps.volume_points, &self.pass.volume);
-                path.l += path.beta * timed(|| point_radiance(points, m, id, x, d, volume));
+                let (points, volume, bounces) =
+                    (self.maps.volume_points, &self.pass.volume, self.bounces(path));
+                path.l +=
+                    path.beta * timed(|| point_radiance(points, m, id, x, d, volume, bounces));
                 Next::Stop
             }
         }
@@ -150,7 +165,8 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb) -> Rgb> EyeVisitor for PhotonEye<'_, F> {
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
         let wo = -path.d;
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-        path.l += (self.at_diffuse)(hit.p, n, material.diffuse_f(), path.beta);
+        let bounces = self.bounces(path);
+        path.l += (self.at_diffuse)(hit.p, n, material.diffuse_f(), path.beta, bounces);
         Next::Stop
     }
 }

@@ -174,17 +174,18 @@ pub(crate) fn gather_pass(
                 let r2 = st.radius2;
                 let r = r2.sqrt() as f32;
                 let (mut m, mut phi) = (0u64, DVec3::ZERO);
-                let direct = trace_eye(scene, maps, pass, x as u32, y as u32, |p, n, f, beta| {
-                    let mut sum = Rgb::ZERO;
-                    surface.query(p, r, |ph, _| {
-                        if ph.n.dot(n) > NORMAL_COS {
-                            m += 1;
-                            sum += ph.beta;
-                        }
+                let direct =
+                    trace_eye(scene, maps, pass, x as u32, y as u32, |p, n, f, beta, b| {
+                        let mut sum = Rgb::ZERO;
+                        surface.query(p, r, |ph, _| {
+                            if ph.n.dot(n) > NORMAL_COS && b.contains(ph.bounces) {
+                                m += 1;
+                                sum += ph.beta;
+                            }
+                        });
+                        phi = (beta * f * sum).as_dvec3();
+                        Rgb::ZERO
                     });
-                    phi = (beta * f * sum).as_dvec3();
-                    Rgb::ZERO
-                });
                 let direct = direct.as_dvec3();
                 if direct.is_finite() && phi.is_finite() {
                     st.direct += direct;

@@ -37,7 +37,7 @@ use std::time::Instant;
 /// The path tracer: its settings and the light sampler, kept between iterations.
 pub(crate) struct PathTracer {
     seed: u64,
-    max_depth: u32,
+    max_bounces: u32,
     /// The photon-mapping radii, reported but unused.
     r1: f64,
     alpha: f64,
@@ -52,7 +52,7 @@ impl PathTracer {
         let diagonal = scene.diagonal() as f64;
         Self {
             seed: settings.seed,
-            max_depth: settings.max_depth,
+            max_bounces: settings.max_bounces,
             r1: settings.initial_radius(diagonal),
             alpha: settings.alpha,
             r1_vol: settings.initial_volume_radius(diagonal),
@@ -80,7 +80,7 @@ impl PathTracer {
         image: &mut [Rgb],
     ) -> Option<StepTimes> {
         let clock = Instant::now();
-        let pass = PathPass { seed: self.seed, iteration: i, max_depth: self.max_depth };
+        let pass = PathPass { seed: self.seed, iteration: i, max_bounces: self.max_bounces };
         if !render_pass(scene, &self.lights, &pass, stop, nonfinite, image) {
             return None;
         }
@@ -96,14 +96,14 @@ pub(crate) struct PathPass {
     /// Iteration number (1-based).
     pub iteration: u64,
     /// Maximum scattering events per path, surface and medium (pass-through interfaces are not
-    /// events): light paths of up to `max_depth` scattering events are counted.
-    pub max_depth: u32,
+    /// events): light paths of up to `max_bounces` scattering events are counted.
+    pub max_bounces: u32,
 }
 
 /// Radiance along one path for pixel (x, y).
 fn pixel_radiance(scene: &Scene, lights: &LightSampler, pass: &PathPass, x: u32, y: u32) -> Rgb {
     let mut visitor = PathEye { lights, count_emission: true, scattered_from: None };
-    walk_eye(scene, pass.seed, pass.iteration, [x, y], pass.max_depth, &mut visitor)
+    walk_eye(scene, pass.seed, pass.iteration, [x, y], pass.max_bounces, &mut visitor)
 }
 
 /// The path tracer's eye path: next-event estimation at every scattering vertex, emitters

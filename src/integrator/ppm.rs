@@ -26,7 +26,7 @@ pub(crate) struct PhotonMapper {
     seed: u64,
     /// Light paths per iteration.
     paths: u64,
-    max_depth: u32,
+    max_bounces: u32,
     kernel: Kernel,
     estimate: VolumeEstimate,
     beam_cell_budget: Option<u32>,
@@ -50,7 +50,7 @@ impl PhotonMapper {
         Self {
             seed: settings.seed,
             paths: settings.photons,
-            max_depth: settings.max_depth,
+            max_bounces: settings.max_bounces,
             kernel: settings.kernel,
             estimate: settings.volume_estimate,
             beam_cell_budget: settings.beam_cell_budget,
@@ -129,7 +129,7 @@ impl PhotonMapper {
             seed: self.seed,
             iteration: i,
             paths: self.paths,
-            max_depth: self.max_depth,
+            max_bounces: self.max_bounces,
         };
         trace_photons(scene, &self.lights, &pass, stop, &mut self.photons)
     }
@@ -179,7 +179,7 @@ impl PhotonMapper {
         CameraPass {
             seed: self.seed,
             iteration: i,
-            max_depth: self.max_depth,
+            max_bounces: self.max_bounces,
             surface: gather(r),
             volume: gather(r_vol),
             estimate: self.estimate,

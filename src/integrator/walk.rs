@@ -1,7 +1,7 @@
 //! The one eye-path walker. Every integrator's camera pass follows eye paths the same way: the
 //! pixel's random stream, the jittered camera ray, the surface hits, pass-through interfaces
 //! (which change the medium and are not scattering events), specular bounces (mirror, glass),
-//! medium changes and ray offsets, and the count of scattering events against `max_depth`. What
+//! medium changes and ray offsets, and the count of scattering events against `max_bounces`. What
 //! an integrator does differently — along a segment in a medium, at an emitter, at a diffuse
 //! surface, and whether a path survives a bounce — it says through an [`EyeVisitor`].
 //!
@@ -21,7 +21,7 @@ use glam::{Vec2, Vec3};
 pub(crate) enum Next {
     /// On along the same ray, to the surface it hits.
     Continue,
-    /// A scattering event: on from `o` in direction `d` (counts towards `max_depth`).
+    /// A scattering event: on from `o` in direction `d` (counts towards `max_bounces`).
     Scatter {
         /// New origin.
         o: Vec3,
@@ -48,14 +48,14 @@ pub(crate) struct EyePath<'a> {
     pub(crate) l: Rgb,
     /// Scattering events so far.
     pub(crate) depth: u32,
-    pub(crate) max_depth: u32,
+    pub(crate) max_bounces: u32,
 }
 
 impl EyePath<'_> {
     /// True if the next scattering event is the last the path may have.
     #[inline]
     pub(crate) fn last(&self) -> bool {
-        self.depth + 1 == self.max_depth
+        self.depth + 1 == self.max_bounces
     }
 }
 
@@ -94,7 +94,13 @@ enum Step {
 impl<'a> EyePath<'a> {
     /// The path of pixel (x, y) of iteration `iteration`: its stream, and the jittered camera
     /// ray.
-    fn start(scene: &'a Scene, seed: u64, iteration: u64, pixel: [u32; 2], max_depth: u32) -> Self {
+    fn start(
+        scene: &'a Scene,
+        seed: u64,
+        iteration: u64,
+        pixel: [u32; 2],
+        max_bounces: u32,
+    ) -> Self {
         let [x, y] = pixel;
         let width = scene.camera.resolution[0];
         let mut s = Sampler::new(seed, Purpose::Camera, iteration, (y * width + x) as u64);
@@ -109,7 +115,7 @@ impl<'a> EyePath<'a> {
             beta: Rgb::ONE,
             l: Rgb::ZERO,
             depth: 0,
-            max_depth,
+            max_bounces,
         }
     }
 }
@@ -121,10 +127,10 @@ pub(crate) fn walk_eye(
     seed: u64,
     iteration: u64,
     pixel: [u32; 2],
-    max_depth: u32,
+    max_bounces: u32,
     visitor: &mut impl EyeVisitor,
 ) -> Rgb {
-    let mut path = EyePath::start(scene, seed, iteration, pixel, max_depth);
+    let mut path = EyePath::start(scene, seed, iteration, pixel, max_bounces);
     let mut crossings = 0u32;
     loop {
         let hit = scene.intersect(path.o, path.d, f32::INFINITY);

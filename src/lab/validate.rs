@@ -93,7 +93,7 @@ struct Case {
     /// Bias bound of a kernel estimate as a function of the volume radius.
     bias: Box<dyn Fn(VolumeEstimate, f64) -> f64>,
     /// Scattering events allowed on a path (1: single scattering only).
-    max_depth: u32,
+    max_bounces: u32,
     /// Bias of the set-up itself (e.g. a finite block standing in for a half-space), for every
     /// method.
     setup_bias: f64,
@@ -238,7 +238,7 @@ fn furnace_cases(media_dir: &Path) -> Vec<Case> {
         reference: 1.0,
         bias: Box::new(move |_, r| furnace_bias(r)),
         setup_bias: 0.0,
-        max_depth: 10_000,
+        max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
@@ -256,7 +256,7 @@ fn furnace_cases(media_dir: &Path) -> Vec<Case> {
         reference: 1.0,
         bias: Box::new(move |_, r| furnace_bias(r)),
         setup_bias: 0.0,
-        max_depth: 10_000,
+        max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
@@ -278,7 +278,7 @@ fn beer_lambert_cases(media_dir: &Path) -> Vec<Case> {
         // The ray offset at the slab's face shortens the path by ≤ 1e-5·(1 + |p|).
         bias: Box::new(move |_, _| le * beer_lambert(sigma_a, thickness) * (sigma_a * 2e-5)),
         setup_bias: 0.0,
-        max_depth: 10_000,
+        max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
@@ -298,7 +298,7 @@ fn beer_lambert_cases(media_dir: &Path) -> Vec<Case> {
         reference: le * (-tau).exp(),
         bias: Box::new(move |_, _| le * (-tau).exp() * (sigma_t * scale * 2e-5)),
         setup_bias: 0.0,
-        max_depth: 10_000,
+        max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
@@ -342,7 +342,7 @@ fn half_space_cases() -> Vec<Case> {
                 boundary_bias(estimate, r, mu, source) + smoothing_bias(reference, r, mu)
             }),
             setup_bias: lateral + offset_bias(reference, 8.0),
-            max_depth: 10_000,
+            max_bounces: 10_000,
             volume_radius: [0.04, 0.04],
             photons_scale: 1,
         });
@@ -395,7 +395,7 @@ fn grazing_single_scattering_cases() -> Vec<Case> {
                     + smoothing_bias(reference, r, mu)
             }),
             setup_bias: reference * missing + offset_bias(reference, 0.5 / mu),
-            max_depth: 1,
+            max_bounces: 1,
             volume_radius: [0.002, 0.05],
             photons_scale: 10,
         });
@@ -419,7 +419,7 @@ fn slab_single_scattering_case() -> Case {
     // slab (the beam's disc pokes out of both).
     let source = irradiance * omega * phase * (1.0 + (-tau * (1.0 + 1.0 / mu)).exp());
     Case {
-        name: format!("slab single scattering (τ {tau}, ω {omega}, g {g}, μ {mu}), max_depth 1"),
+        name: format!("slab single scattering (τ {tau}, ω {omega}, g {g}, μ {mu}), max_bounces 1"),
         medium: "homogeneous",
         toml: half_space_toml(HalfSpaceView {
             omega,
@@ -438,7 +438,7 @@ fn slab_single_scattering_case() -> Case {
         // Single scattering needs no light from beyond the slab's edges: an eye ray stays within
         // τ tan θ < 2 of the viewed patch, 8 from the edges. The ray offsets remain.
         setup_bias: offset_bias(reference, 8.0),
-        max_depth: 1,
+        max_bounces: 1,
         volume_radius: [0.02, 0.04],
         photons_scale: 1,
     }
@@ -453,7 +453,7 @@ fn point_source_cases() -> Vec<Case> {
     // Paths limited to one scattering event render the single-scattered part alone.
     let (omega, power, b) = (0.5, 100.0, 1.0);
     let medium = PointSourceMedium { omega };
-    for (which, max_depth, label) in [
+    for (which, max_bounces, label) in [
         (Scattering::Single, 1u32, "single scattering"),
         (Scattering::Collided, 10_000, "all orders"),
     ] {
@@ -472,7 +472,7 @@ fn point_source_cases() -> Vec<Case> {
             // The camera's 0.01 × 0.01 footprint averages rays around the reference ray: a
             // second-order effect, below 10⁻⁴ of the radiance.
             setup_bias: reference * 1e-4,
-            max_depth,
+            max_bounces,
             volume_radius: [0.05, 0.05],
             photons_scale: 1,
         });
@@ -510,7 +510,7 @@ pub fn run(
                 s.iterations = Some(effort.iterations);
                 s.time_limit = None;
                 s.photons = effort.photons * case.photons_scale;
-                s.max_depth = case.max_depth;
+                s.max_bounces = case.max_bounces;
                 s.integrator = integrator;
                 s.volume_estimate = estimate;
                 s.volume_radius = Some(case.radius(estimate));

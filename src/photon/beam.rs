@@ -359,7 +359,7 @@ mod tests {
             .map(|i| VolumePhoton {
                 p: centre
                     + (Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 2.0 - 1.0) * half,
-                medium: i as u32 % 3,
+                medium: i as u16 % 3,
                 ..Default::default()
             })
             .collect()

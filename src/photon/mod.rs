@@ -24,6 +24,9 @@ pub struct Photon {
     pub n: Vec3,
     /// Power (W per emitted path, see above).
     pub beta: Rgb,
+    /// Scattering events of the light path before it arrived here (0: straight from the light,
+    /// through pass-through interfaces only).
+    pub bounces: u16,
 }
 
 /// A photon stored in a medium, at a real collision of a light path.
@@ -41,7 +44,28 @@ pub struct VolumePhoton {
     /// Power (see above).
     pub beta: Rgb,
     /// The medium it is in.
-    pub medium: u32,
+    pub medium: u16,
+    /// Scattering events of the light path before this collision (0: straight from the light).
+    pub bounces: u16,
+}
+
+/// Which photons an estimate gathers: those whose light paths had `min..=max` scattering events
+/// before arriving (see [`Photon::bounces`]). The bounce limit of the whole path and the split of
+/// light between next-event estimation and photons both come down to such a range.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct BounceRange {
+    /// Fewest events before arrival (1 when next-event estimation covers direct light).
+    pub min: u16,
+    /// Most events before arrival.
+    pub max: u16,
+}
+
+impl BounceRange {
+    /// True if a photon of `bounces` events is gathered.
+    #[inline]
+    pub(crate) fn contains(&self, bounces: u16) -> bool {
+        bounces >= self.min && bounces <= self.max
+    }
 }
 
 /// Counting-sort offsets: `start` becomes `buckets + 1` entries with `start[b]..start[b + 1]` the

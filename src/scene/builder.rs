@@ -163,6 +163,9 @@ impl SceneBuilder {
         if self.media.iter().any(|(n, _)| n == name) {
             return Err(invalid(format!("media.{name}"), "defined twice"));
         }
+        if self.media.len() >= u16::MAX as usize {
+            return Err(invalid(format!("media.{name}"), "more than 65535 media"));
+        }
         let key = |k: &str| format!("media.{name}.{k}");
         let (sigma_a, sigma_s, g) = match &desc {
             MediumDesc::Homogeneous { sigma_a, sigma_s, g }

@@ -372,7 +372,17 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         _ => CameraDef::Orthographic(typed(camera, "camera")?),
     };
     let render = match root.get("render") {
-        Some(r) => Some((typed::<RenderOptions>(r, "render")?, r.span())),
+        Some(r) => {
+            if let Some(old) = r.get_ref().as_table().and_then(|t| t.get("max_depth")) {
+                return Err(error(
+                    "render.max_depth",
+                    old.span().start,
+                    "replaced by `max_bounces`, which limits the scattering events along the whole \
+                     light-to-camera path (max_depth limited light and eye paths separately)",
+                ));
+            }
+            Some((typed::<RenderOptions>(r, "render")?, r.span()))
+        }
         None => None,
     };
     let materials = named(root, "materials", |kind, v, key| {

@@ -44,7 +44,7 @@ pub enum Material {
 }
 
 /// Most pass-through interfaces one path (or shadow ray) crosses. Crossings are not scattering
-/// events and do not count towards `max_depth`; this bound keeps stacked or coincident
+/// events and do not count towards `max_bounces`; this bound keeps stacked or coincident
 /// interfaces from making a path's work unbounded.
 pub const MAX_CROSSINGS: u32 = 256;
 

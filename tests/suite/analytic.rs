@@ -3,7 +3,7 @@
 //! Sphere radius R, albedo ρ, light power Φ: the direct irradiance is E₀ = Φ / (4πR²) everywhere,
 //! and after a diffuse bounce inside a sphere the next hit point is again uniform on the sphere, so
 //! the k-th bounce contributes E₀ ρ^(k−1). A light path stores a photon at each of its first D
-//! hits (D = max_depth), hence the exact answer for the rendered radiance is
+//! hits (D = max_bounces), hence the exact answer for the rendered radiance is
 //!
 //!   L = (ρ/π) · E₀ · (1 − ρ^D) / (1 − ρ).
 //!
@@ -51,7 +51,7 @@ fn closed_diffuse_sphere_with_central_point_light() {
                     photons: 20_000,
                     radius: Some(0.08),
                     kernel,
-                    max_depth: depth,
+                    max_bounces: depth,
                     seed,
                     integrator,
                     ..RenderSettings::default()

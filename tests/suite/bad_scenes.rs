@@ -133,6 +133,11 @@ fn impossible_settings_name_the_key() {
     expect_error(&text, &["render.radius", "not both"]);
     let text = format!("{CAMERA}{BODY}[render]\nphotons = 0\n");
     expect_error(&text, &["render.photons"]);
+    // The old per-subpath limit points to the whole-path one.
+    let text = format!("{CAMERA}{BODY}[render]\nmax_depth = 8\n");
+    expect_error(&text, &["render.max_depth", "max_bounces"]);
+    let text = format!("{CAMERA}{BODY}[render]\nmax_bounces = 0\n");
+    expect_error(&text, &["render.max_bounces"]);
 }
 
 #[test]
@@ -293,7 +298,8 @@ fn random_corruptions_of_a_scene_never_panic() {
             if let (Ok(mut scene), true) = (scene, case % 40 == 0) {
                 scene.set_resolution([4, 3]).unwrap();
                 let mut st = scene.settings.clone();
-                (st.iterations, st.time_limit, st.photons, st.max_depth) = (Some(1), None, 500, 8);
+                (st.iterations, st.time_limit, st.photons, st.max_bounces) =
+                    (Some(1), None, 500, 8);
                 let stop = std::sync::atomic::AtomicBool::new(false);
                 let image = haze::render(&scene, &st, &mut haze::progress::Silent, &stop).unwrap();
                 assert!(image.pixels.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));

@@ -21,7 +21,7 @@ fn path_settings(seed: u64, iterations: u64) -> RenderSettings {
         iterations: Some(iterations),
         integrator: Integrator::Path,
         seed,
-        max_depth: 8,
+        max_bounces: 8,
         ..RenderSettings::default()
     }
 }
@@ -219,7 +219,7 @@ fn original_ppm_matches_the_analytic_sphere() {
                 iterations: Some(6),
                 photons: 20_000,
                 radius: Some(0.08),
-                max_depth: depth as u32,
+                max_bounces: depth as u32,
                 seed,
                 progression: Progression::Original,
                 ..RenderSettings::default()

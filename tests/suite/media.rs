@@ -67,7 +67,7 @@ pub(crate) fn volume_settings(estimate: VolumeEstimate, r: f64, seed: u64) -> Re
         photons: 10_000,
         radius: Some(0.05),
         kernel: Kernel::Epanechnikov,
-        max_depth: 100_000,
+        max_bounces: 60_000,
         seed,
         volume_estimate: estimate,
         volume_alpha: 0.5,
@@ -210,7 +210,7 @@ fn beam_and_point_estimates_agree() {
         (0..8)
             .map(|seed| {
                 let mut s = volume_settings(estimate, r, 100 + seed);
-                s.max_depth = 64;
+                s.max_bounces = 64;
                 s.photons = 20_000;
                 render(&scene, &s).mean()
             })

@@ -28,7 +28,7 @@ fn quick_validation_passes_every_case() {
     // The cases behind two fixed defects are there (and passed above):
     // - a grazing view of the half-space with a small beam radius from two camera distances,
     //   which the f32 cancellation in the beam's distance test once biased by +8.8 % and −7.9 %;
-    // - single scattering (max_depth 1) seen through pass-through surfaces, which once rendered
+    // - single scattering (max_bounces 1) seen through pass-through surfaces, which once rendered
     //   black because crossing a surface counted as a scattering event.
     let grazing: Vec<_> = rows
         .iter()

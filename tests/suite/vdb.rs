@@ -51,7 +51,7 @@ fn constant_density_grid_renders_like_the_homogeneous_medium() {
                         radius: Some(0.05),
                         volume_radius: Some(0.05),
                         volume_estimate: estimate,
-                        max_depth: 32,
+                        max_bounces: 32,
                         seed,
                         ..RenderSettings::default()
                     };
