@@ -129,9 +129,17 @@ impl Image {
         let i = &self.info;
         let method = match i.settings.integrator {
             Integrator::Path => "path tracer (unbiased)".to_string(),
-            Integrator::PhotonMapping => format!(
-                "photon mapping ({} volume estimate, {} light paths, final radius {:.3e}, volume radius {:.3e}; consistent, not unbiased)",
-                i.settings.volume_estimate, i.light_paths, i.radius, i.volume_radius
+            Integrator::PhotonMapping | Integrator::Hybrid => format!(
+                "{} ({} volume estimate, {} light paths, final radius {:.3e}, volume radius {:.3e}; consistent, not unbiased)",
+                if i.settings.integrator == Integrator::Hybrid {
+                    "hybrid"
+                } else {
+                    "photon mapping"
+                },
+                i.settings.volume_estimate,
+                i.light_paths,
+                i.radius,
+                i.volume_radius
             ),
         };
         format!(

@@ -30,7 +30,7 @@
 //! volume_alpha = 0.5        # α of the volume schedule r³(i+1)/r³(i) = (i+α)/(i+1)
 //! volume_radius_fraction = 0.005  # initial volume radius (or `volume_radius`, absolute)
 //! volume_dimension = 3      # dimension d of the volume schedule (3; 2 for experiments)
-//! integrator = "ppm"        # "ppm" (photon mapping) or "path" (reference path tracer)
+//! integrator = "hybrid"     # "hybrid" (light sampling + photons), "photons" or "path"
 //! progression = "probabilistic"  # or "original": Hachisuka 2008 per-pixel statistics (surfaces only)
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
 //! ```
@@ -104,10 +104,23 @@ pub(crate) fn one_of(names: &[&str]) -> String {
 choices! {
     /// Which integrator renders.
     pub enum Integrator ("integrator") {
-        /// Probabilistic progressive photon mapping (the default).
-        PhotonMapping = "ppm",
+        /// Light sampling where it wins, photons where they must (the default): direct light by
+        /// next-event estimation at diffuse surfaces and along eye segments in media (MIS with
+        /// BSDF sampling, equiangular and transmittance distances); photons only for light that
+        /// interacted at least once on its way (through glass, after scattering).
+        Hybrid = "hybrid",
+        /// Probabilistic progressive photon mapping alone: photons carry all light, direct light
+        /// included (the method of Knaus & Zwicker 2011, for comparisons).
+        PhotonMapping = "photons",
         /// The unbiased volumetric path tracer with next-event estimation (reference and baseline).
         Path = "path",
+    }
+}
+
+impl Integrator {
+    /// True for the integrators that trace photons.
+    pub fn uses_photons(self) -> bool {
+        self != Integrator::Path
     }
 }
 
@@ -221,6 +234,10 @@ fn bounce_limit(v: &u32) -> Result<(), String> {
     } else {
         Err(format!("must lie in 1..={}, got {v}", u16::MAX))
     }
+}
+
+fn direct_count(v: &u32) -> Result<(), String> {
+    if (1..=256).contains(v) { Ok(()) } else { Err(format!("must lie in 1..=256, got {v}")) }
 }
 
 fn dimension(v: &u32) -> Result<(), String> {
@@ -395,14 +412,21 @@ render_settings! {
     [long, value_name = "D"]
     volume_dimension: u32 = 3, dimension;
 
-    /// Integrator: progressive photon mapping, or the unbiased reference path tracer.
+    /// Integrator: the hybrid of light sampling and photons, photon mapping alone, or the
+    /// unbiased reference path tracer.
     [long, value_name = "NAME"]
-    integrator: Integrator = Integrator::PhotonMapping, any;
+    integrator: Integrator = Integrator::Hybrid, any;
 
     /// Probabilistic PPM (one radius per iteration, image = mean of iterations), or the original
     /// PPM's per-pixel statistics (a comparison mode for surfaces only).
     [long, value_name = "KIND"]
     progression: Progression = Progression::Probabilistic, any;
+
+    /// Next-event estimates of direct light per eye-path vertex (a diffuse surface, or a segment
+    /// in a medium) and iteration, in the hybrid: more lowers the direct light's noise at the
+    /// cost of the camera pass, without more photons or photon queries.
+    [long, value_name = "N"]
+    direct_samples: u32 = 1, direct_count;
 
     /// Thin volume photons in thinning cells (cubes holding ~4 photons on average) holding more
     /// than this many: each is kept with probability budget/count and its power divided by it —
@@ -510,10 +534,14 @@ impl RenderSettings {
                 message: "give an iteration count, a time limit, or both".into(),
             });
         }
-        if self.progression == Progression::Original && self.integrator == Integrator::Path {
+        if self.progression == Progression::Original && self.integrator != Integrator::PhotonMapping
+        {
             return Err(SettingError {
                 key: "progression",
-                message: "\"original\" applies to photon mapping, not the path tracer".into(),
+                message: format!(
+                    "\"original\" is a comparison mode for photon mapping alone (integrator = \"photons\"), not \"{}\"",
+                    self.integrator
+                ),
             });
         }
         Ok(())
@@ -592,7 +620,7 @@ mod tests {
         let e = s.entries();
         let get = |k: &str| e.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
         assert_eq!(get("kernel").as_deref(), Some("\"epanechnikov\""));
-        assert_eq!(get("integrator").as_deref(), Some("\"ppm\""));
+        assert_eq!(get("integrator").as_deref(), Some("\"hybrid\""));
         assert_eq!(get("beam_cell_budget").as_deref(), Some("8"));
         assert_eq!(get("time_limit"), None);
         // What the header records reads back as the same settings.

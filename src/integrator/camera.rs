@@ -7,16 +7,19 @@
 //! transmittance) or the point estimate (at a sampled collision, where the path ends; without a
 //! collision the path goes on with the free-flight weight).
 
+use super::direct::surface_direct;
+use super::single::single_scattering;
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::surface::{Gather, surface_radiance};
 use crate::estimate::volume::{EyeSegment, beam_radiance, point_radiance};
 use crate::math::Rgb;
-use crate::medium::Medium;
+use crate::medium::{Medium, SegmentTransmittance};
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
 use crate::photon::{BounceRange, Photon, VolumePhoton};
 use crate::scene::Scene;
+use crate::scene::light::LightSampler;
 use crate::scene::material::Material;
 use crate::settings::VolumeEstimate;
 use glam::Vec3;
@@ -30,6 +33,8 @@ pub(crate) struct Maps<'a> {
     pub volume_points: &'a PhotonGrid<VolumePhoton>,
     /// Volume photons for beam queries (used by the beam estimate).
     pub volume_beams: &'a BeamMap,
+    /// The lights, for next-event estimation (the hybrid integrator).
+    pub lights: &'a LightSampler,
 }
 
 /// Settings of one camera pass.
@@ -48,6 +53,11 @@ pub(crate) struct CameraPass {
     pub volume: Gather,
     /// Beam or point estimate in media.
     pub estimate: VolumeEstimate,
+    /// Direct light by next-event estimation, photons only for light that interacted on its way
+    /// (the hybrid integrator).
+    pub hybrid: bool,
+    /// Next-event estimates per eye vertex (hybrid), averaged.
+    pub direct_samples: u32,
 }
 
 #[cfg(feature = "profile")]
@@ -119,10 +129,34 @@ struct PhotonEye<'a, F> {
 impl<F> PhotonEye<'_, F> {
     /// The photons an estimate at the path's next vertex may gather: a photon of k events,
     /// gathered there (one more event) after the path's specular bounces, keeps the whole path
-    /// within the bounce limit.
+    /// within the bounce limit; the hybrid leaves light straight from the lights (k = 0) to
+    /// next-event estimation.
     fn bounces(&self, path: &EyePath) -> BounceRange {
         let room = path.max_bounces.saturating_sub(1 + path.depth);
-        BounceRange { min: 0, max: room.min(u16::MAX as u32) as u16 }
+        let min = if self.pass.hybrid { 1 } else { 0 };
+        BounceRange { min, max: room.min(u16::MAX as u32) as u16 }
+    }
+
+    /// The hybrid's single scattering along the segment (0 for photon mapping alone, whose
+    /// photons carry it).
+    fn single(
+        &self,
+        path: &mut EyePath,
+        m: &Medium,
+        id: u32,
+        t_max: f32,
+        tr: &SegmentTransmittance,
+    ) -> Rgb {
+        if !self.pass.hybrid {
+            return Rgb::ZERO;
+        }
+        let segment = EyeSegment { o: path.o, w: path.d, t_max };
+        let scene = path.scene;
+        let n = self.pass.direct_samples;
+        let sum = (0..n).fold(Rgb::ZERO, |l, _| {
+            l + single_scattering(scene, self.maps.lights, &segment, (id, m), tr, &mut path.s)
+        });
+        sum / n as f32
     }
 }
 
@@ -134,6 +168,8 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEy
                 // One transmittance estimate per segment, shared by every photon on it and by the
                 // path's continuation.
                 let tr = m.segment(o, d, t_max, &mut path.s);
+                let single = self.single(path, m, id, t_max, &tr);
+                path.l += path.beta * single;
                 let segment = EyeSegment { o, w: d, t_max };
                 let (beams, volume, bounces) =
                     (self.maps.volume_beams, &self.pass.volume, self.bounces(path));
@@ -143,6 +179,11 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEy
                 Next::Continue
             }
             VolumeEstimate::Point => {
+                if self.pass.hybrid {
+                    let tr = m.segment(o, d, t_max, &mut path.s);
+                    let single = self.single(path, m, id, t_max, &tr);
+                    path.l += path.beta * single;
+                }
                 let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
                 path.beta *= flight.weight;
                 if !flight.scattered {
@@ -165,6 +206,12 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEy
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
         let wo = -path.d;
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+        if self.pass.hybrid {
+            let scene = path.scene;
+            let (lights, medium) = (self.maps.lights, path.medium);
+            path.l +=
+                path.beta * surface_direct(scene, lights, hit, wo, material, medium, &mut path.s);
+        }
         let bounces = self.bounces(path);
         path.l += (self.at_diffuse)(hit.p, n, material.diffuse_f(), path.beta, bounces);
         Next::Stop

@@ -11,7 +11,7 @@ use crate::math::{Rgb, offset_origin};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
-use crate::scene::material::{MAX_CROSSINGS, Material};
+use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
 use glam::Vec3;
 
 /// Transmittance from `o` along `d` over `dist`, starting in `medium`, through pass-through
@@ -99,6 +99,80 @@ pub(crate) fn next_event(
     }
     let weight = ls.pdf.map_or(1.0, |p_l| power_heuristic(p_light * p_l, pdf(ls.wi)));
     fv * ls.value * shadow(scene, p, ls.wi, ls.dist, medium, s) * (weight / p_light)
+}
+
+/// Follows `o + t d` through pass-through interfaces to the first other surface, multiplying the
+/// transmittance of the media it crosses (exact for homogeneous media, ratio tracking for grids):
+/// that surface's hit and the transmittance up to it, or `None` if nothing is hit or no light
+/// gets through. For the direct light a sampled direction brings from an emitter.
+pub(crate) fn transmitted_hit(
+    scene: &Scene,
+    mut o: Vec3,
+    d: Vec3,
+    mut medium: Option<u32>,
+    s: &mut Sampler,
+) -> Option<(Hit, Rgb)> {
+    let mut tr = Rgb::ONE;
+    for _ in 0..=MAX_CROSSINGS {
+        let hit = scene.intersect(o, d, f32::INFINITY);
+        if let Some(id) = medium {
+            let t = hit.map_or(f32::INFINITY, |h| h.t);
+            tr *= scene.media[id as usize].transmittance(o, d, t, s);
+            if tr.max_element() <= 0.0 {
+                return None;
+            }
+        }
+        let hit = hit?;
+        let shape = &scene.shapes[hit.tag as usize];
+        if scene.materials[shape.material as usize] != Material::Interface {
+            return Some((hit, tr));
+        }
+        medium = shape.medium_after(medium, -d, d, hit.ng);
+        o = offset_origin(hit.p, hit.ng, d);
+    }
+    None
+}
+
+/// Direct light at a diffuse surface point `hit` (seen from direction `wo`, in medium `medium`):
+/// next-event estimation and BSDF sampling of the emitters, combined by MIS (power heuristic), as
+/// the path tracer does at its diffuse vertices, but without following the sampled direction
+/// further than the emitter it may reach straight away.
+pub(crate) fn surface_direct(
+    scene: &Scene,
+    lights: &LightSampler,
+    hit: &Hit,
+    wo: Vec3,
+    material: &Material,
+    medium: Option<u32>,
+    s: &mut Sampler,
+) -> Rgb {
+    let ng = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+    let p = offset_origin(hit.p, ng, ng);
+    let (hit_ng, hit_ns) = (hit.ng, hit.ns);
+    let mut l = next_event(
+        scene,
+        lights,
+        p,
+        medium,
+        s,
+        |wi| material.eval(wo, wi, hit_ng, hit_ns, Transport::Radiance),
+        |wi| material.pdf(wo, wi, hit_ng, hit_ns),
+    );
+    if !lights.has_area_lights() {
+        return l;
+    }
+    let u = s.next_2d();
+    let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, 0.0, Transport::Radiance) else {
+        return l;
+    };
+    if let Some((emitter, tr)) = transmitted_hit(scene, p, bs.wi, medium, s) {
+        let shape = &scene.shapes[emitter.tag as usize];
+        if let Some(le) = shape.emission.filter(|_| (-bs.wi).dot(emitter.ng) > 0.0) {
+            let w = emission_weight(lights, &emitter, -bs.wi, p, bs.pdf);
+            l += bs.weight * tr * le * w;
+        }
+    }
+    l
 }
 
 /// MIS weight of reaching an emitting shape at `hit` (seen from direction `wo`) by a direction

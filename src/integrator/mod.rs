@@ -12,6 +12,7 @@ pub(crate) mod direct;
 pub(crate) mod original;
 pub(crate) mod path;
 pub(crate) mod ppm;
+pub(crate) mod single;
 pub(crate) mod walk;
 
 use crate::error::{Error, Result};
@@ -28,7 +29,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// One rendering method and its state between iterations.
 pub(crate) enum Method {
-    /// Probabilistic progressive photon mapping.
+    /// Probabilistic progressive photon mapping, alone or with light sampling (the hybrid).
     PhotonMapping(PhotonMapper),
     /// The original PPM (comparison mode).
     Original(OriginalPpm),
@@ -41,10 +42,10 @@ impl Method {
     pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Result<Self> {
         Ok(match (settings.integrator, settings.progression) {
             (Integrator::Path, _) => Method::Path(PathTracer::new(scene, settings)),
-            (Integrator::PhotonMapping, Progression::Probabilistic) => {
+            (_, Progression::Probabilistic) => {
                 Method::PhotonMapping(PhotonMapper::new(scene, settings))
             }
-            (Integrator::PhotonMapping, Progression::Original) => {
+            (_, Progression::Original) => {
                 if !scene.media.is_empty() {
                     return Err(Error::Settings(
                         "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")".into(),

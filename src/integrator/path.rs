@@ -19,9 +19,11 @@
 //! known weakness photon mapping is for.
 
 use super::direct::{emission_weight, next_event};
+use super::single::single_scattering;
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::radius::radius;
+use crate::estimate::volume::EyeSegment;
 use crate::math::{Rgb, offset_origin};
 use crate::medium::Medium;
 use crate::progress::StepTimes;
@@ -118,35 +120,31 @@ struct PathEye<'a> {
 }
 
 impl EyeVisitor for PathEye<'_> {
-    fn medium(&mut self, path: &mut EyePath, m: &Medium, _id: u32, t_max: f32) -> Next {
+    fn medium(&mut self, path: &mut EyePath, m: &Medium, id: u32, t_max: f32) -> Next {
         let (o, d) = (path.o, path.d);
+        // Direct light scattered once anywhere along the segment (equiangular and
+        // transmittance-proportional distances, MIS); the path itself goes on by free flight
+        // and scatters for the higher orders.
+        let tr = m.segment(o, d, t_max, &mut path.s);
+        let segment = EyeSegment { o, w: d, t_max };
+        let scene = path.scene;
+        path.l +=
+            path.beta * single_scattering(scene, self.lights, &segment, (id, m), &tr, &mut path.s);
         let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
         path.beta *= flight.weight;
         if !flight.scattered {
             return Next::Continue;
         }
-        let x = o + d * flight.t;
-        let sigma_s = m.sigma_s(x);
-        let phase = m.phase();
-        let last = path.last();
-        path.l += path.beta
-            * sigma_s
-            * next_event(
-                path.scene,
-                self.lights,
-                x,
-                path.medium,
-                &mut path.s,
-                |wi| Rgb::splat(phase.eval(d, wi)),
-                |wi| if last { 0.0 } else { phase.eval(d, wi) },
-            );
-        if last {
+        if path.last() {
             return Next::Stop;
         }
-        path.beta *= sigma_s;
-        let ps = phase.sample(d, path.s.next_2d());
+        let x = o + d * flight.t;
+        path.beta *= m.sigma_s(x);
+        let ps = m.phase().sample(d, path.s.next_2d());
+        // Direct light at x was counted along the segment: an emitter this direction reaches
+        // does not count again.
         self.count_emission = false;
-        self.scattered_from = Some((x, ps.value));
+        self.scattered_from = None;
         Next::Scatter { o: x, d: ps.d_out }
     }
 

@@ -16,7 +16,7 @@ use crate::photon::{Photon, VolumePhoton};
 use crate::progress::StepTimes;
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
-use crate::settings::{RenderSettings, VolumeEstimate};
+use crate::settings::{Integrator, RenderSettings, VolumeEstimate};
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
 
@@ -27,6 +27,10 @@ pub(crate) struct PhotonMapper {
     /// Light paths per iteration.
     paths: u64,
     max_bounces: u32,
+    /// Light sampling for direct light, photons for the rest (the hybrid integrator).
+    hybrid: bool,
+    /// Next-event estimates per eye vertex in the hybrid.
+    direct_samples: u32,
     kernel: Kernel,
     estimate: VolumeEstimate,
     beam_cell_budget: Option<u32>,
@@ -51,6 +55,8 @@ impl PhotonMapper {
             seed: settings.seed,
             paths: settings.photons,
             max_bounces: settings.max_bounces,
+            hybrid: settings.integrator == Integrator::Hybrid,
+            direct_samples: settings.direct_samples,
             kernel: settings.kernel,
             estimate: settings.volume_estimate,
             beam_cell_budget: settings.beam_cell_budget,
@@ -130,6 +136,7 @@ impl PhotonMapper {
             iteration: i,
             paths: self.paths,
             max_bounces: self.max_bounces,
+            skip_direct: self.hybrid,
         };
         trace_photons(scene, &self.lights, &pass, stop, &mut self.photons)
     }
@@ -166,6 +173,7 @@ impl PhotonMapper {
             surface: &self.surface_map,
             volume_points: &self.volume_points,
             volume_beams: &self.volume_beams,
+            lights: &self.lights,
         }
     }
 
@@ -183,6 +191,8 @@ impl PhotonMapper {
             surface: gather(r),
             volume: gather(r_vol),
             estimate: self.estimate,
+            hybrid: self.hybrid,
+            direct_samples: self.direct_samples,
         }
     }
 }

@@ -662,12 +662,18 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
             .collect(),
         "progression" => [Progression::Probabilistic, Progression::Original]
             .iter()
-            .map(|&p| with(format!("{} PPM", p.name()), &|s| s.progression = p))
+            .map(|&p| {
+                with(format!("{} PPM", p.name()), &|s| {
+                    s.progression = p;
+                    s.integrator = Integrator::PhotonMapping;
+                })
+            })
             .collect(),
-        "integrator" => [Integrator::PhotonMapping, Integrator::Path]
+        "integrator" => [Integrator::Hybrid, Integrator::PhotonMapping, Integrator::Path]
             .iter()
             .map(|&i| {
                 let label = match i {
+                    Integrator::Hybrid => "hybrid",
                     Integrator::PhotonMapping => "photon mapping",
                     Integrator::Path => "path tracing",
                 };

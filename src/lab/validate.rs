@@ -53,7 +53,7 @@ pub struct Row {
     pub case: String,
     /// Medium kind: "homogeneous" or "vdb".
     pub medium: &'static str,
-    /// "ppm/beam", "ppm/point" or "path".
+    /// "hybrid/beam", "hybrid/point", "photons/beam", "photons/point" or "path".
     pub method: &'static str,
     /// Reference value.
     pub reference: f64,
@@ -488,9 +488,11 @@ pub fn run(
     filter: Option<&str>,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Row>> {
-    let methods: [(&'static str, Integrator, VolumeEstimate); 3] = [
-        ("ppm/beam", Integrator::PhotonMapping, VolumeEstimate::Beam),
-        ("ppm/point", Integrator::PhotonMapping, VolumeEstimate::Point),
+    let methods: [(&'static str, Integrator, VolumeEstimate); 5] = [
+        ("hybrid/beam", Integrator::Hybrid, VolumeEstimate::Beam),
+        ("hybrid/point", Integrator::Hybrid, VolumeEstimate::Point),
+        ("photons/beam", Integrator::PhotonMapping, VolumeEstimate::Beam),
+        ("photons/point", Integrator::PhotonMapping, VolumeEstimate::Point),
         ("path", Integrator::Path, VolumeEstimate::Beam),
     ];
     let media_dir = &std::fs::canonicalize(media_dir)
@@ -526,7 +528,9 @@ pub fn run(
             let bias = case.setup_bias
                 + match integrator {
                     Integrator::Path => 0.0,
-                    Integrator::PhotonMapping => (case.bias)(estimate, case.radius(estimate)),
+                    Integrator::PhotonMapping | Integrator::Hybrid => {
+                        (case.bias)(estimate, case.radius(estimate))
+                    }
                 };
             rows.push(Row {
                 case: case.name.clone(),

@@ -77,6 +77,93 @@ impl SegmentTransmittance {
     }
 }
 
+/// Distances along a segment, [t0, t1], with density proportional to its transmittance: a
+/// truncated exponential of the mean extinction in a homogeneous medium, the ratio-tracking step
+/// function of the segment in a grid (the density then depends on that estimate, which is
+/// independent of the distance drawn, so an estimator linear in the transmittance stays unbiased).
+/// One of the two distance strategies of single scattering (the other is equiangular sampling).
+pub struct TransmittanceDistance<'a> {
+    tr: &'a SegmentTransmittance,
+    t0: f32,
+    t1: f32,
+    /// Exponential rate (homogeneous media).
+    sigma: f32,
+    /// ∫ T over [t0, t1] (grids), or the exponential's normalisation 1 − e^{−σ (t1 − t0)}.
+    total: f32,
+}
+
+impl<'a> TransmittanceDistance<'a> {
+    /// The distribution over [t0, t1] for the segment's transmittance `tr`; `None` if it has no
+    /// mass (nothing to sample).
+    pub fn new(tr: &'a SegmentTransmittance, t0: f32, t1: f32) -> Option<Self> {
+        let sigma = match tr {
+            SegmentTransmittance::Grey { sigma_t } => *sigma_t,
+            SegmentTransmittance::Exponential { sigma_t } => sigma_t.element_sum() / 3.0,
+            SegmentTransmittance::Steps(steps) => {
+                let total = step_areas(steps, t0, t1).last().copied().unwrap_or(0.0);
+                let ok = total > 0.0 && total.is_finite();
+                return ok.then_some(Self { tr, t0, t1, sigma: 0.0, total });
+            }
+        };
+        let total = -(-sigma * (t1 - t0)).exp_m1();
+        (sigma > 0.0 && total > 0.0).then_some(Self { tr, t0, t1, sigma, total })
+    }
+
+    /// A distance drawn from a uniform `u`, and its density.
+    pub fn sample(&self, u: f32) -> (f32, f32) {
+        let t = match self.tr {
+            SegmentTransmittance::Steps(steps) => {
+                let areas = step_areas(steps, self.t0, self.t1);
+                let target = u * self.total;
+                let i = areas.partition_point(|&a| a <= target).min(areas.len() - 1);
+                let (lo, hi) = step_interval(steps, i, self.t0, self.t1);
+                let before = if i == 0 { 0.0 } else { areas[i - 1] };
+                let value = step_value(steps, i);
+                if value > 0.0 { (lo + (target - before) / value).clamp(lo, hi) } else { lo }
+            }
+            _ => self.t0 - (-u * self.total).ln_1p() / self.sigma,
+        };
+        let t = t.clamp(self.t0, self.t1);
+        (t, self.pdf(t))
+    }
+
+    /// The density of distance `t`.
+    pub fn pdf(&self, t: f32) -> f32 {
+        if !(t >= self.t0 && t <= self.t1) {
+            return 0.0;
+        }
+        match self.tr {
+            SegmentTransmittance::Steps(steps) => vdb::steps_at(steps, t) / self.total,
+            _ => self.sigma * (-self.sigma * (t - self.t0)).exp() / self.total,
+        }
+    }
+}
+
+/// Interval i of a transmittance step function clipped to [t0, t1]: [t0, s_1), [s_1, s_2), …,
+/// [s_n, t1], where T is 1 on the first and the value after step k on the others.
+fn step_interval(steps: &[(f32, f32)], i: usize, t0: f32, t1: f32) -> (f32, f32) {
+    let lo = if i == 0 { t0 } else { steps[i - 1].0.clamp(t0, t1) };
+    let hi = if i < steps.len() { steps[i].0.clamp(t0, t1) } else { t1 };
+    (lo, hi)
+}
+
+/// T on interval i of a step function (see [`step_interval`]).
+fn step_value(steps: &[(f32, f32)], i: usize) -> f32 {
+    if i == 0 { 1.0 } else { steps[i - 1].1 }
+}
+
+/// Cumulative ∫ T over the intervals of a step function clipped to [t0, t1].
+fn step_areas(steps: &[(f32, f32)], t0: f32, t1: f32) -> Vec<f32> {
+    let mut total = 0.0;
+    (0..=steps.len())
+        .map(|i| {
+            let (lo, hi) = step_interval(steps, i, t0, t1);
+            total += step_value(steps, i) * (hi - lo).max(0.0);
+            total
+        })
+        .collect()
+}
+
 impl Medium {
     /// Samples a collision along `o + t d`, 0 < t < `t_max` (`t_max` may be infinite).
     #[inline]
@@ -110,6 +197,17 @@ impl Medium {
                 }
             }
             Medium::Vdb(v) => SegmentTransmittance::Steps(v.transmittance_steps(o, d, t_max, s)),
+        }
+    }
+
+    /// The part [t0, t1] of o + t d, 0 ≤ t ≤ `t_max`, where the medium can scatter: all of it
+    /// for a homogeneous medium, the grid's extent for a grid; `None` if empty.
+    pub fn scattering_extent(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32)> {
+        match self {
+            Medium::Homogeneous(h) => {
+                (t_max > 0.0 && h.sigma_s.max_element() > 0.0).then_some((0.0, t_max))
+            }
+            Medium::Vdb(v) => v.extent(o, d, t_max),
         }
     }
 

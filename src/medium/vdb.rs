@@ -144,6 +144,29 @@ impl VdbMedium {
         });
     }
 
+    /// The part [t0, t1] of o + t d, 0 ≤ t ≤ `t_max`, inside the grid's majorant cells (the
+    /// density is zero elsewhere); `None` if the ray misses them.
+    pub fn extent(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32)> {
+        // In index space, where the cells cover [lo, lo + cells · MAJORANT_CELL]; t is unchanged
+        // by the affine map.
+        let oi = self.to_index.transform_point3(o);
+        let di = self.to_index.transform_vector3(d);
+        let hi = self.lo + (self.cells * MAJORANT_CELL).as_vec3();
+        let (mut t0, mut t1) = (0.0f32, t_max);
+        for a in 0..3 {
+            if di[a] == 0.0 {
+                if oi[a] < self.lo[a] || oi[a] > hi[a] {
+                    return None;
+                }
+                continue;
+            }
+            let (u, v) = ((self.lo[a] - oi[a]) / di[a], (hi[a] - oi[a]) / di[a]);
+            t0 = t0.max(u.min(v));
+            t1 = t1.min(u.max(v));
+        }
+        (t0 < t1).then_some((t0, t1))
+    }
+
     /// Delta tracking: a collision with pdf σ_t(t) T(0, t), weight 1/σ_t(t); or none, weight 1.
     pub fn sample_free_flight(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> FreeFlight {
         let mut hit: Option<(f32, f32)> = None;

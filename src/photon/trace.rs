@@ -31,6 +31,9 @@ pub struct PhotonPass {
     /// Maximum scattering events per path (pass-through interfaces are not events): a photon is
     /// stored at each of its first `max_bounces` scattering vertices at most.
     pub max_bounces: u32,
+    /// Store no photon at a light path's first event (light straight from the light), which the
+    /// hybrid integrator estimates by next-event estimation instead.
+    pub skip_direct: bool,
 }
 
 /// Photons left by a pass.
@@ -61,7 +64,10 @@ const ALWAYS_STORED: f32 = 32.0;
 /// for the ~1000 events of an albedo-0.999 random walk, at most ~280 under the largest bounce
 /// limit. Memory per iteration stays within light paths × a small constant, and paths of up to
 /// 32 events — nearly every path outside dense, high-albedo media — keep every photon.
-fn stored(path: &mut LightPath) -> Option<f32> {
+fn stored(path: &mut LightPath, pass: &PhotonPass) -> Option<f32> {
+    if pass.skip_direct && path.bounces == 0 {
+        return None;
+    }
     let q = (ALWAYS_STORED / (path.bounces as f32 + 1.0)).min(1.0);
     if q >= 1.0 {
         Some(1.0)
@@ -153,7 +159,7 @@ fn collide(
     // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s. Where
     // σ_s = 0 the photon could only ever be weighted by zero: skip it.
     if sigma_s.max_element() > 0.0 {
-        if let Some(scale) = stored(path) {
+        if let Some(scale) = stored(path, pass) {
             let bounces = path.bounces as u16;
             let beta = path.beta * scale;
             out.volume.push(VolumePhoton { p, d, beta, medium: id as u16, bounces });
@@ -199,7 +205,7 @@ fn at_surface(
     if material.is_diffuse() {
         // Power convention (see `Photon`): store the path throughput as it arrives.
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-        if let Some(scale) = stored(path) {
+        if let Some(scale) = stored(path, pass) {
             let (beta, bounces) = (path.beta * scale, path.bounces as u16);
             out.surface.push(Photon { p: hit.p, n, beta, bounces });
         }

@@ -197,6 +197,15 @@ impl Light {
     }
 }
 
+/// A point of a light: its position, and for an area light the surface normal there.
+#[derive(Clone, Copy, Debug)]
+pub struct LightPoint {
+    /// Position.
+    pub p: Vec3,
+    /// Outward normal of an area light's surface (`None` for point and spot lights).
+    pub n: Option<Vec3>,
+}
+
 /// Light arriving at a point from a sampled point of a light ([`Light::sample_li`]).
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
@@ -218,41 +227,47 @@ impl Light {
     /// brings (see [`LightSample`]). Area lights are sampled uniformly by area and converted to
     /// solid angle; `None` if the sampled point faces away from `p` or coincides with it.
     pub fn sample_li(&self, p: Vec3, s: &mut Sampler) -> Option<LightSample> {
+        match self.sample_point(s) {
+            Some(point) => self.li_from(p, &point),
+            None => self.li_from_infinity(),
+        }
+    }
+
+    /// A point of the light to connect to: the position of a point or spot light; for an area
+    /// light a point sampled uniformly by area, with its normal; `None` for a directional light,
+    /// which has no position.
+    pub fn sample_point(&self, s: &mut Sampler) -> Option<LightPoint> {
         match self {
-            Light::Point { position, intensity } => {
-                let v = *position - p;
-                let d2 = v.length_squared();
-                (d2 > 0.0).then(|| {
-                    let dist = d2.sqrt();
-                    LightSample { wi: v / dist, dist, value: *intensity / d2, pdf: None }
-                })
+            Light::Point { position, .. } | Light::Spot { position, .. } => {
+                Some(LightPoint { p: *position, n: None })
             }
-            Light::Spot { position, frame, .. } => {
-                let v = *position - p;
-                let d2 = v.length_squared();
-                if d2 <= 0.0 {
-                    return None;
-                }
-                let dist = d2.sqrt();
-                let wi = v / dist;
+            Light::Directional { .. } => None,
+            Light::Area { emitter, .. } => {
+                let (q, n) = emitter.sample_point(s.next_f32(), s.next_2d());
+                Some(LightPoint { p: q, n: Some(n) })
+            }
+        }
+    }
+
+    /// Light arriving at `p` from the point `point` of this light (from [`Self::sample_point`]).
+    pub fn li_from(&self, p: Vec3, point: &LightPoint) -> Option<LightSample> {
+        let v = point.p - p;
+        let d2 = v.length_squared();
+        if d2 <= 0.0 {
+            return None;
+        }
+        let dist = d2.sqrt();
+        let wi = v / dist;
+        match self {
+            Light::Point { intensity, .. } => {
+                Some(LightSample { wi, dist, value: *intensity / d2, pdf: None })
+            }
+            Light::Spot { frame, .. } => {
                 let value = self.spot_intensity(frame.n.dot(-wi)) / d2;
                 Some(LightSample { wi, dist, value, pdf: None })
             }
-            Light::Directional { direction, irradiance, .. } => Some(LightSample {
-                wi: -*direction,
-                dist: f32::INFINITY,
-                value: *irradiance,
-                pdf: None,
-            }),
             Light::Area { radiance, emitter, .. } => {
-                let (q, n) = emitter.sample_point(s.next_f32(), s.next_2d());
-                let v = q - p;
-                let d2 = v.length_squared();
-                if d2 <= 0.0 {
-                    return None;
-                }
-                let dist = d2.sqrt();
-                let wi = v / dist;
+                let n = point.n.unwrap_or(-wi);
                 let cos_l = n.dot(-wi);
                 if cos_l <= 0.0 {
                     return None;
@@ -266,6 +281,20 @@ impl Light {
                     pdf: Some(d2 / (cos_l * area)),
                 })
             }
+            Light::Directional { .. } => self.li_from_infinity(),
+        }
+    }
+
+    /// Light of a directional light, arriving from infinity.
+    fn li_from_infinity(&self) -> Option<LightSample> {
+        match self {
+            Light::Directional { direction, irradiance, .. } => Some(LightSample {
+                wi: -*direction,
+                dist: f32::INFINITY,
+                value: *irradiance,
+                pdf: None,
+            }),
+            _ => None,
         }
     }
 }
@@ -301,6 +330,11 @@ impl LightSampler {
     /// The area light of shape `shape` and its area, if the shape emits.
     pub fn area_light(&self, shape: u32) -> Option<(usize, f32)> {
         self.area_lights.get(shape as usize).copied().flatten()
+    }
+
+    /// True if some shape is an area light (which BSDF or phase sampling can reach).
+    pub fn has_area_lights(&self) -> bool {
+        self.area_lights.iter().any(Option::is_some)
     }
 
     /// True if no light emits anything.

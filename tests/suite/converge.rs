@@ -56,8 +56,8 @@ fn reference_files_round_trip() {
     ppm.write_reference(&ppm_path, 1.0).unwrap();
     let r = Reference::load(&ppm_path).unwrap();
     assert!(r.variance.is_none());
-    assert_eq!(r.made_by, Some((Integrator::PhotonMapping, 0)));
-    assert!(r.description.unwrap().contains("photon mapping"));
+    assert_eq!(r.made_by, Some((Integrator::Hybrid, 0)));
+    assert!(r.description.unwrap().contains("hybrid"));
     // A plain render has no variance layer and no reference attribute.
     let plain = dir.join("plain.exr");
     img.write_exr(&plain).unwrap();
@@ -222,6 +222,7 @@ fn original_ppm_matches_the_analytic_sphere() {
                 max_bounces: depth as u32,
                 seed,
                 progression: Progression::Original,
+                integrator: Integrator::PhotonMapping,
                 ..RenderSettings::default()
             };
             let img = render(&scene, &s);
@@ -233,15 +234,21 @@ fn original_ppm_matches_the_analytic_sphere() {
     assert_agrees("original PPM, sphere ρ = 0.5", &means, reference, 0.0);
 }
 
-/// The original PPM refuses scenes with media and the path tracer.
+/// The original PPM refuses scenes with media, the path tracer and the hybrid.
 #[test]
 fn original_ppm_is_for_surfaces_only() {
     let fog = Scene::load(scene_path("cornell-fog.toml")).unwrap();
-    let s = RenderSettings { progression: Progression::Original, ..RenderSettings::default() };
+    let s = RenderSettings {
+        progression: Progression::Original,
+        integrator: Integrator::PhotonMapping,
+        ..RenderSettings::default()
+    };
     let err = haze::render(&fog, &s, &mut Silent, &AtomicBool::new(false)).unwrap_err();
     assert!(err.to_string().contains("media"), "{err}");
-    let p = RenderSettings { integrator: Integrator::Path, ..s };
-    assert!(p.validate().unwrap_err().key == "progression");
+    for integrator in [Integrator::Path, Integrator::Hybrid] {
+        let p = RenderSettings { integrator, ..s.clone() };
+        assert!(p.validate().unwrap_err().key == "progression");
+    }
 }
 
 fn haze(args: &[&str]) -> (bool, String, String) {

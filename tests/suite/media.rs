@@ -99,6 +99,8 @@ fn white_furnace_with_media_for_both_estimators() {
     for (sigma_s, g, r) in cases {
         let scene = furnace(le, homogeneous(Vec3::ZERO, sigma_s, g));
         for (estimate, integrator) in [
+            (VolumeEstimate::Beam, Integrator::Hybrid),
+            (VolumeEstimate::Point, Integrator::Hybrid),
             (VolumeEstimate::Beam, Integrator::PhotonMapping),
             (VolumeEstimate::Point, Integrator::PhotonMapping),
             (VolumeEstimate::Beam, Integrator::Path),
@@ -124,7 +126,7 @@ fn white_furnace_with_media_for_both_estimators() {
                 // The path tracer has no kernel, hence no bias allowance.
                 let bias = match integrator {
                     Integrator::Path => 0.0,
-                    Integrator::PhotonMapping => {
+                    Integrator::PhotonMapping | Integrator::Hybrid => {
                         le[c] as f64 * sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp()
                     }
                 };

@@ -76,6 +76,8 @@ fn furnace_holds_at_extreme_thickness_and_anisotropy() {
     for (sigma_s, g, r, photons, seeds, iterations) in cases {
         let scene = furnace(Vec3::splat(le), homogeneous(Vec3::ZERO, Vec3::splat(sigma_s), g));
         for (estimate, integrator) in [
+            (VolumeEstimate::Beam, Integrator::Hybrid),
+            (VolumeEstimate::Point, Integrator::Hybrid),
             (VolumeEstimate::Beam, Integrator::PhotonMapping),
             (VolumeEstimate::Point, Integrator::PhotonMapping),
             (VolumeEstimate::Beam, Integrator::Path),
@@ -84,7 +86,9 @@ fn furnace_holds_at_extreme_thickness_and_anisotropy() {
             let xs = run.means(&scene, 0..seeds);
             let bias = match integrator {
                 Integrator::Path => 0.0,
-                Integrator::PhotonMapping => furnace_bias(le as f64, sigma_s as f64, r),
+                Integrator::PhotonMapping | Integrator::Hybrid => {
+                    furnace_bias(le as f64, sigma_s as f64, r)
+                }
             };
             assert_agrees(
                 &format!("furnace σ_s = {sigma_s}, g = {g}, {estimate:?}, {integrator:?}"),
@@ -175,6 +179,8 @@ fn albedo_0999_photon_mapping_and_path_tracing_match_an_analog_walk() {
         let l_d = 1.0 / (3.0 * sigma_a.x as f64 * sigma_t as f64).sqrt();
         let bias = furnace_bias(1.0, sigma_t as f64, r) + r * r / (2.0 * l_d * l_d);
         for (estimate, integrator) in [
+            (VolumeEstimate::Beam, Integrator::Hybrid),
+            (VolumeEstimate::Point, Integrator::Hybrid),
             (VolumeEstimate::Beam, Integrator::PhotonMapping),
             (VolumeEstimate::Point, Integrator::PhotonMapping),
             (VolumeEstimate::Beam, Integrator::Path),

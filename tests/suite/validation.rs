@@ -10,7 +10,7 @@ fn quick_validation_passes_every_case() {
     let rows =
         haze::lab::validate::run(&media, haze::lab::validate::Effort::QUICK, None, |_, _| {})
             .unwrap();
-    assert_eq!(rows.len(), 36);
+    assert_eq!(rows.len(), 60);
     let failed: Vec<String> = rows
         .iter()
         .filter(|r| !r.pass())
@@ -23,7 +23,7 @@ fn quick_validation_passes_every_case() {
         .collect();
     assert!(failed.is_empty(), "{}", failed.join("\n"));
     assert!(haze::lab::validate::markdown(&rows).contains("| pass |"));
-    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 37);
+    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 61);
 
     // The cases behind two fixed defects are there (and passed above):
     // - a grazing view of the half-space with a small beam radius from two camera distances,
@@ -32,12 +32,14 @@ fn quick_validation_passes_every_case() {
     //   black because crossing a surface counted as a scattering event.
     let grazing: Vec<_> = rows
         .iter()
-        .filter(|r| r.case.contains("μ 0.3, single scattering, r 0.002") && r.method == "ppm/beam")
+        .filter(|r| {
+            r.case.contains("μ 0.3, single scattering, r 0.002") && r.method == "photons/beam"
+        })
         .collect();
     assert_eq!(grazing.len(), 2, "the grazing half-space at two camera distances");
     let slab: Vec<_> =
         rows.iter().filter(|r| r.case.starts_with("slab single scattering")).collect();
-    assert_eq!(slab.len(), 3, "single scattering in a slab with every method");
+    assert_eq!(slab.len(), 5, "single scattering in a slab with every method");
     for r in slab.iter().chain(&grazing) {
         assert!(r.mean > 0.5 * r.reference, "{} / {}: {}", r.case, r.method, r.mean);
     }

@@ -74,7 +74,7 @@ fn report(
     timed: u64,
     totals: &Totals,
 ) {
-    let media = scene.has_media() && settings.integrator == Integrator::PhotonMapping;
+    let media = scene.has_media() && settings.integrator.uses_photons();
     let t = &totals.times;
     let per_it = |x: f64| x / timed as f64;
     let [w, h] = scene.resolution();
@@ -88,7 +88,7 @@ fn report(
     );
     println!("| step | per second | seconds per iteration |");
     println!("|---|---|---|");
-    if settings.integrator == Integrator::PhotonMapping {
+    if settings.integrator.uses_photons() {
         println!(
             "| photon pass (trace + map builds) | {:.0} light paths/s, {:.0} surface + {:.0} volume photons stored/s | {:.4} |",
             paths / photon_pass,

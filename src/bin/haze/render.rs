@@ -86,7 +86,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
     let i = &image.info;
     let interrupted = if stop.load(Ordering::Relaxed) { " (interrupted)" } else { "" };
     let work = match i.settings.integrator {
-        Integrator::PhotonMapping => {
+        Integrator::PhotonMapping | Integrator::Hybrid => {
             format!("{} light paths, final radius {:.5}", i.light_paths, i.radius)
         }
         Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),
