@@ -19,13 +19,13 @@ mkdir -p "$OUT" "$REFS"
 # scene, resolution, photons per iteration, integrator of the reference
 scenes=(
   "cornell-box 96x96 12500 path"
-  "glass-caustic 120x80 18750 ppm"
+  "glass-caustic 120x80 18750 photons"
   "cornell-fog 96x96 12500 path"
   "spotlight-fog 160x100 25000 path"
   "cornell-cloud 96x96 12500 path"
   "cornell-cloud-homogeneous 96x96 12500 path"
   "vdb-cloud 160x100 25000 path"
-  "volumetric-caustic 250x141 12500 ppm"
+  "volumetric-caustic 250x141 12500 photons"
   "thin-fog 96x96 12500 path"
   "dense-fog 96x96 125 path"
   "fog-forward 96x96 12500 path"
@@ -53,9 +53,12 @@ for line in "${scenes[@]}"; do
   wanted "$name" || continue
   common=(--reference "$REFS/$name.exr" --resolution "$res" -p "$photons" -q)
   if grep -q '^\[media' "scenes/$name.toml"; then
-    series=(--series "ppm beam:volume_estimate=beam" --series "ppm point:volume_estimate=point")
+    series=(--series "hybrid beam:integrator=hybrid,volume_estimate=beam"
+      --series "hybrid point:integrator=hybrid,volume_estimate=point"
+      --series "photons beam:integrator=photons,volume_estimate=beam"
+      --series "photons point:integrator=photons,volume_estimate=point")
   else
-    series=(--series "ppm:")
+    series=(--series "hybrid:integrator=hybrid" --series "photons:integrator=photons")
   fi
   # The volumetric caustic's light covers a fraction of one pixel at 1000x the image mean; its
   # anti-aliasing noise alone would dominate the RMSE, so measure below it (rows 30-140).
