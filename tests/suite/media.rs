@@ -208,27 +208,31 @@ fn beam_and_point_estimates_agree() {
     b.light(LightDesc::point([0.0, 0.0, 1.0], 50.0).medium(fog)).unwrap();
     let scene = b.build().unwrap();
     let r = 0.05;
-    let means = |estimate| -> Vec<f64> {
-        (0..8)
-            .map(|seed| {
-                let mut s = volume_settings(estimate, r, 100 + seed);
-                s.max_bounces = 64;
-                s.photons = 20_000;
-                render(&scene, &s).mean()
-            })
-            .collect()
-    };
-    let (beam, point) = (means(VolumeEstimate::Beam), means(VolumeEstimate::Point));
-    let (mb, sb) = mean_and_se(&beam);
-    let (mp, sp) = mean_and_se(&point);
-    let bias = 2.0 * 5.0 * r * r / 12.0 * mb.max(mp);
-    let t = t_critical(beam.len()); // conservative: fewer degrees of freedom than Welch's
-    let diff = (mb - mp).abs();
-    assert!(
-        diff <= t * (sb * sb + sp * sp).sqrt() + bias,
-        "beam {mb:.6} ± {sb:.6} vs point {mp:.6} ± {sp:.6}: |Δ| = {diff:.6}"
-    );
-    assert!(mb > 0.0);
+    // The hybrid (photons for light after an interaction only) and pure photon mapping.
+    for integrator in [Integrator::Hybrid, Integrator::PhotonMapping] {
+        let means = |estimate| -> Vec<f64> {
+            (0..8)
+                .map(|seed| {
+                    let mut s = volume_settings(estimate, r, 100 + seed);
+                    s.integrator = integrator;
+                    s.max_bounces = 64;
+                    s.photons = 20_000;
+                    render(&scene, &s).mean()
+                })
+                .collect()
+        };
+        let (beam, point) = (means(VolumeEstimate::Beam), means(VolumeEstimate::Point));
+        let (mb, sb) = mean_and_se(&beam);
+        let (mp, sp) = mean_and_se(&point);
+        let bias = 2.0 * 5.0 * r * r / 12.0 * mb.max(mp);
+        let t = t_critical(beam.len()); // conservative: fewer degrees of freedom than Welch's
+        let diff = (mb - mp).abs();
+        assert!(
+            diff <= t * (sb * sb + sp * sp).sqrt() + bias,
+            "{integrator:?}: beam {mb:.6} ± {sb:.6} vs point {mp:.6} ± {sp:.6}: |Δ| = {diff:.6}"
+        );
+        assert!(mb > 0.0);
+    }
 }
 
 /// Both estimators use the volume schedule r³(i+1)/r³(i) = (i+α)/(i+1), the surface the r²
