@@ -1,0 +1,335 @@
+#!/usr/bin/env python3
+"""Equal-time comparison of haze with Mitsuba 3 (docs/mitsuba/README.md).
+
+For each scene: a long haze path-traced reference; a long Mitsuba volpath render (several seeds)
+whose per-region agreement with the reference is reported with standard errors; then, at equal
+wall time on the same number of threads, the relative RMSE against the reference of Mitsuba
+volpath, haze path, haze photons and haze hybrid. Writes a Markdown table to stdout.
+
+Run with the virtualenv that has Mitsuba 3, numpy and OpenEXR (see the README); scenes with a
+VDB medium also need Debian's python3-openvdb for /usr/bin/python3 (the grid is exported to a
+numpy file there, since pyopenvdb is not on PyPI).
+"""
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import tomllib
+import re
+
+import numpy as np
+
+SEEDS = 8  # independent renders behind each region mean and its standard error
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+
+def rotation(mi, deg):
+    """haze's rotation: about x, then y, then z (degrees)."""
+    T = mi.ScalarTransform4f
+    return (T().rotate([0, 0, 1], deg[2]) @ T().rotate([0, 1, 0], deg[1])
+            @ T().rotate([1, 0, 0], deg[0]))
+
+
+def placement(mi, t):
+    """haze's transform table: translate · rotate · scale."""
+    T = mi.ScalarTransform4f
+    scale = t.get("scale", 1.0)
+    scale = [scale] * 3 if isinstance(scale, (int, float)) else scale
+    return (T().translate(t.get("translate", [0, 0, 0])) @ rotation(mi, t.get("rotate", [0, 0, 0]))
+            @ T().scale(scale))
+
+
+def rgb(v):
+    return {"type": "rgb", "value": [v] * 3 if isinstance(v, (int, float)) else list(v)}
+
+
+def coefficients(m):
+    """(sigma_t, albedo) per channel from haze's (sigma_a, sigma_s) or (albedo, sigma_t)."""
+    def vec(v):
+        return np.array([v] * 3 if isinstance(v, (int, float)) else v, dtype=float)
+    if "sigma_t" in m:
+        return vec(m["sigma_t"]), vec(m["albedo"])
+    a, s = vec(m["sigma_a"]), vec(m["sigma_s"])
+    t = a + s
+    return t, np.divide(s, t, out=np.zeros(3), where=t > 0)
+
+
+def export_grid(vdb, grid, out):
+    """Dense density array and index->world map of an OpenVDB grid, via /usr/bin/python3."""
+    code = f"""
+import pyopenvdb, numpy as np
+g = pyopenvdb.read({vdb!r}, {grid!r})
+lo, hi = g.evalActiveVoxelBoundingBox()
+dims = [hi[i] - lo[i] + 1 for i in range(3)]
+a = np.zeros(dims, dtype=np.float32)
+g.copyToArray(a, ijk=lo)
+o = g.transform.indexToWorld((0, 0, 0))
+x = g.transform.indexToWorld((1, 1, 1))
+np.savez({out!r}, density=a, lo=np.array(lo), origin=np.array(o), voxel=np.array(x) - np.array(o))
+"""
+    subprocess.run(["/usr/bin/python3", "-c", code], check=True)
+    return np.load(out)
+
+
+def medium_dict(mi, name, m, scene_dir, tmp):
+    sigma_t, albedo = coefficients(m)
+    phase = {"type": "hg", "g": m.get("g", 0.0)}
+    if m["type"] == "homogeneous":
+        return {"type": "homogeneous", "sigma_t": rgb(sigma_t.tolist()),
+                "albedo": rgb(albedo.tolist()), "phase": phase}
+    # A grid: σ_t = density_scale · density · σ_t (grey); padded by a voxel of zeros so that
+    # trilinear lookups fall to zero outside, as haze's do. Mitsuba samples a grid of n voxels at
+    # the centres (i + ½)/n of the unit cube.
+    g = export_grid(os.path.join(scene_dir, m["file"]), m.get("grid", "density"),
+                    os.path.join(tmp, f"{name}.npz"))
+    dens = np.pad(g["density"], 1)  # (x, y, z)
+    n = np.array(dens.shape, dtype=float)
+    T = mi.ScalarTransform4f
+    corner = g["origin"] + g["voxel"] * (g["lo"] - 1.5)
+    to_world = (placement(mi, m.get("transform", {})) @ T().translate(corner.tolist())
+                @ T().scale((g["voxel"] * n).tolist()))
+    # Mitsuba's VolumeGrid wants (z, y, x, channels).
+    data = np.ascontiguousarray(np.transpose(dens, (2, 1, 0))[..., None], dtype=np.float32)
+    return {"type": "heterogeneous", "phase": phase, "albedo": rgb(albedo.tolist()),
+            "scale": float(m.get("density_scale", 1.0) * sigma_t.mean()),
+            "sigma_t": {"type": "gridvolume", "grid": mi.VolumeGrid(data),
+                        "to_world": to_world, "filter_type": "trilinear"}}
+
+
+def bsdf_dict(m):
+    kind = m["type"]
+    if kind == "diffuse":
+        return {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": rgb(m["albedo"])}}
+    if kind == "mirror":
+        return {"type": "conductor", "material": "none",
+                "specular_reflectance": rgb(m.get("reflectance", 1.0))}
+    if kind == "dielectric":
+        return {"type": "dielectric", "int_ior": m["ior"], "ext_ior": 1.0}
+    return {"type": "null"}
+
+
+def surrounding_medium(shape, shapes):
+    """The medium an opaque shape sits in. haze carries the ray's medium across a surface that
+    names none; Mitsuba takes it from the surface, so every shape inside a medium must name it as
+    its exterior. A shape whose centre lies in an interface box is in that box's interior; a scene
+    closed by an interface rectangle (an open room, cornell-fog) has its medium all around."""
+    centre = np.array(shape.get("transform", {}).get("translate", shape.get("center", [0, 0, 0])), float)
+    for o in shapes:
+        if "interior" not in o:
+            continue
+        t = np.array(o.get("transform", {}).get("translate", [0, 0, 0]), float)
+        if o["type"] == "box" and np.all(np.abs(centre - t) <= np.array(o["size"]) / 2):
+            return o["interior"]
+    rooms = [o["interior"] for o in shapes if o["type"] == "rectangle" and "interior" in o]
+    return rooms[0] if rooms else None
+
+
+def shape_dict(mi, s, materials, media):
+    T = mi.ScalarTransform4f
+    place = placement(mi, s.get("transform", {}))
+    kind = s["type"]
+    if kind == "rectangle":
+        w, h = s.get("size", [1, 1])
+        d = {"type": "rectangle", "to_world": place @ T().scale([w / 2, h / 2, 1])}
+    elif kind == "box":
+        x, y, z = s.get("size", [1, 1, 1])
+        d = {"type": "cube", "to_world": place @ T().scale([x / 2, y / 2, z / 2])}
+    elif kind == "sphere":
+        c = s.get("center", [0, 0, 0])
+        d = {"type": "sphere", "to_world": place @ T().translate(c) @ T().scale(s["radius"])}
+    else:
+        raise SystemExit(f"shape type {kind} is not ported")
+    d["bsdf"] = bsdf_dict(materials[s["material"]])
+    for side in ("interior", "exterior"):
+        if side in s:
+            d[side] = media[s[side]]
+    if "emission" not in s:
+        return [d]
+    # A Mitsuba 3.9 defect (../shared/DESIGN.md §10): a shadow ray that crossed a null surface
+    # restarts nudged off it with its old remaining length, overshoots a nearby area light and is
+    # blocked by the light's own surface. So the emitter is a null surface, and the lamp's body a
+    # non-emitting copy 10⁻³ behind it.
+    lamp = dict(d, bsdf={"type": "null"}, emitter={"type": "area", "radiance": rgb(s["emission"])})
+    normal = np.array(d["to_world"] @ mi.ScalarVector3f(0, 0, 1))
+    normal = normal / np.linalg.norm(normal)
+    body = dict(d, to_world=T().translate((-1e-3 * normal).tolist()) @ d["to_world"])
+    return [lamp, body]
+
+
+def up_for(position, look_at):
+    """An up vector not parallel to the view direction."""
+    v = np.subtract(look_at, position)
+    return [0, 1, 0] if abs(v[1]) < 0.99 * np.linalg.norm(v) else [1, 0, 0]
+
+
+def light_dict(mi, light, media):
+    kind = light["type"]
+    power = light["power"] if "power" in light else None
+    p3 = np.array([power] * 3 if isinstance(power, (int, float)) else power or [0, 0, 0], float)
+    if kind == "point":
+        d = {"type": "point", "position": light["position"], "intensity": rgb((p3 / (4 * math.pi)).tolist())}
+    elif kind == "spot":
+        # A hard edge in both renderers (compare.py renders haze with falloff_start = cone_angle):
+        # Mitsuba's falloff is linear in angle, haze's a smoothstep in cos θ.
+        cone = light["cone_angle"]
+        omega = 2 * math.pi * (1 - math.cos(math.radians(cone)))
+        d = {"type": "spot", "intensity": rgb((p3 / omega).tolist()), "cutoff_angle": cone,
+             "beam_width": cone,
+             "to_world": mi.ScalarTransform4f().look_at(light["position"], light["look_at"],
+                                                        up_for(light["position"], light["look_at"]))}
+    elif kind == "directional":
+        d = {"type": "directional", "direction": light["direction"], "irradiance": rgb(light["irradiance"])}
+    else:
+        raise SystemExit(f"light type {kind} is not ported")
+    if "medium" in light:
+        d["medium"] = media[light["medium"]]
+    return d
+
+
+def mitsuba_scene(mi, path, res, max_bounces, tmp):
+    with open(path, "rb") as f:
+        s = tomllib.load(f)
+    scene_dir = os.path.dirname(os.path.abspath(path))
+    media = {n: medium_dict(mi, n, m, scene_dir, tmp) for n, m in s.get("media", {}).items()}
+    cam = s["camera"]
+    sensor = {
+        "type": "perspective", "fov": cam["fov"], "fov_axis": "y",
+        "to_world": mi.ScalarTransform4f().look_at(cam["position"], cam["look_at"], cam.get("up", [0, 1, 0])),
+        "film": {"type": "hdrfilm", "width": res[0], "height": res[1], "pixel_format": "rgb",
+                 "rfilter": {"type": "box"}},
+        "sampler": {"type": "independent"},
+    }
+    if "medium" in cam:
+        sensor["medium"] = media[cam["medium"]]
+    d = {"type": "scene", "integrator": {"type": "volpath", "max_depth": max_bounces + 1},
+         "sensor": sensor}
+    shapes = s.get("shapes", [])
+    for i, sh in enumerate(shapes):
+        if s["materials"][sh["material"]]["type"] != "interface" and not {"interior", "exterior"} & sh.keys():
+            around = surrounding_medium(sh, shapes)
+            if around:
+                sh = dict(sh, exterior=around)
+        for k, part in enumerate(shape_dict(mi, sh, s["materials"], media)):
+            d[f"shape{i}_{k}"] = part
+    for i, light in enumerate(s.get("lights", [])):
+        d[f"light{i}"] = light_dict(mi, light, media)
+    return d
+
+
+def read_exr(path):
+    import OpenEXR
+    f = OpenEXR.File(path)
+    ch = f.parts[0].channels
+    key = "RGB" if "RGB" in ch else sorted(ch)[0]
+    return np.asarray(ch[key].pixels, dtype=np.float64)
+
+
+def haze_render(haze, scene, res, seconds, integrator, seed, out, threads, extra=()):
+    subprocess.run([haze, "render", scene, "--resolution", f"{res[0]}x{res[1]}", "-t", f"{seconds}s",
+                    "--integrator", integrator, "-s", str(seed), "-j", str(threads), "-q", "-o", out,
+                    *extra], check=True)
+    return read_exr(out)
+
+
+def mitsuba_render(mi, scene, spp, seed):
+    return np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
+
+
+def rel_rmse(img, ref, ref_var):
+    """RMSE over pixels and channels less the reference's own variance of the mean (as `haze
+    converge` measures it), relative to the reference's mean."""
+    return math.sqrt(max(np.mean((img - ref) ** 2) - np.mean(ref_var), 0.0)) / np.mean(ref)
+
+
+def regions(img, n=4):
+    """Means of an n × n grid of image regions."""
+    h, w = img.shape[:2]
+    return np.array([[img[i * h // n:(i + 1) * h // n, j * w // n:(j + 1) * w // n].mean()
+                      for j in range(n)] for i in range(n)])
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("scenes", nargs="*", default=["cornell-fog", "spotlight-fog",
+                                                   "cornell-cloud-homogeneous", "cornell-cloud"])
+    ap.add_argument("--scale", type=int, default=4,
+                    help="render at 1/SCALE of each scene's resolution, with 1/SCALE² of its photons")
+    ap.add_argument("--seconds", type=float, default=60)
+    ap.add_argument("--reference-seconds", type=float, default=480)
+    ap.add_argument("--agreement-seconds", type=float, default=240,
+                    help=f"Mitsuba time for the agreement check, split over {SEEDS} seeds")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--haze", default=os.path.join(ROOT, "target", "release", "haze"))
+    args = ap.parse_args()
+
+    import drjit as dr
+    dr.set_thread_count(args.threads)
+    import mitsuba as mi
+    mi.set_variant(os.environ.get("MITSUBA_VARIANT", "scalar_rgb"))
+
+    print(f"| scene | Mitsuba volpath | haze path | haze photons | haze hybrid | Mitsuba − haze reference (regions, in s.e.) |")
+    print("|---|---|---|---|---|---|")
+    for name in args.scenes:
+        with tempfile.TemporaryDirectory() as tmp:
+            toml = os.path.join(ROOT, "scenes", f"{name}.toml")
+            text = open(toml).read()
+            # Hard-edged spots in both renderers (see light_dict).
+            text = re.sub(r"falloff_start = [0-9.]+\n", "", text)
+            scene_path = os.path.join(os.path.dirname(toml), f".compare-{name}.toml")
+            with open(scene_path, "w") as f:
+                f.write(text)
+            try:
+                with open(scene_path, "rb") as f:
+                    desc = tomllib.load(f)
+                bounces = desc.get("render", {}).get("max_bounces", 64)
+                res = [v // args.scale for v in desc["camera"]["resolution"]]
+                photons = ["-p", str(desc["render"]["photons"] // args.scale ** 2)]
+                # The reference: haze's path tracer, SEEDS seeds (their spread gives its standard
+                # errors per region).
+                refs = [haze_render(args.haze, scene_path, res, args.reference_seconds / SEEDS, "path",
+                                    1000 + k, os.path.join(tmp, f"ref{k}.exr"), args.threads)
+                        for k in range(SEEDS)]
+                ref = np.mean(refs, axis=0)
+                ref_var = np.var(refs, axis=0, ddof=1) / SEEDS
+                scene = mi.load_dict(mitsuba_scene(mi, scene_path, res, bounces, tmp), parallel=False)
+                # Mitsuba's rate, then its long renders for the agreement check.
+                t0 = time.time()
+                mitsuba_render(mi, scene, 4, 1)
+                rate = 4 / (time.time() - t0)
+                long = [mitsuba_render(mi, scene, max(4, int(rate * args.agreement_seconds / SEEDS)), 100 + k)
+                        for k in range(SEEDS)]
+                r = np.array([regions(x) for x in long])
+                h = np.array([regions(x) for x in refs])
+                diff = r.mean(axis=0) - h.mean(axis=0)
+                se = np.sqrt(r.var(axis=0, ddof=1) / SEEDS + h.var(axis=0, ddof=1) / SEEDS)
+                z = np.abs(diff) / np.maximum(se, 1e-12)
+                print(f"{name}: Mitsuba − haze per region (row-major, top row first), relative "
+                      f"difference in % and z:\n{np.array2string(diff / regions(ref) * 100, precision=2)}"
+                      f"\n{np.array2string(diff / np.maximum(se, 1e-12), precision=1)}", file=sys.stderr)
+                agree = f"max |z| {z.max():.1f}, max rel. diff {np.max(np.abs(diff) / regions(ref)) * 100:.2f} %"
+                # Equal time.
+                spp = max(1, int(rate * args.seconds))
+                t0 = time.time()
+                mts = mitsuba_render(mi, scene, spp, 7)
+                mts_time = time.time() - t0
+                errs = [rel_rmse(mts, ref, ref_var)]
+                for integ in ("path", "photons", "hybrid"):
+                    img = haze_render(args.haze, scene_path, res, args.seconds, integ, 7,
+                                      os.path.join(tmp, f"{integ}.exr"), args.threads, photons)
+                    errs.append(rel_rmse(img, ref, ref_var))
+                cells = " | ".join(f"{e * 100:.2f} %" for e in errs)
+                noise = math.sqrt(np.mean(ref_var)) / np.mean(ref)
+                print(f"| {name} | {cells} | {agree} |  <!-- Mitsuba {spp} spp in {mts_time:.0f} s; "
+                      f"reference noise {noise * 100:.2f} % -->")
+                sys.stdout.flush()
+            finally:
+                os.remove(scene_path)
+
+
+if __name__ == "__main__":
+    main()
