@@ -14,16 +14,27 @@ use crate::scene::light::LightSampler;
 use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
 use glam::Vec3;
 
-/// Transmittance from `o` along `d` over `dist`, starting in `medium`, through pass-through
-/// interfaces; zero if anything else is in the way.
-pub(crate) fn shadow(
+/// What a ray meets when followed through pass-through interfaces.
+enum Crossing {
+    /// It reached its end (or left the scene) with this transmittance.
+    Reached(Rgb),
+    /// It met a surface that is not pass-through, with the transmittance up to it.
+    Surface(Hit, Rgb),
+    /// No light gets through (zero transmittance, or more than `MAX_CROSSINGS` interfaces).
+    Blocked,
+}
+
+/// Follows `o + t d`, t ≤ `dist`, starting in `medium`, through pass-through interfaces,
+/// multiplying the transmittance of the media it crosses (exact for homogeneous media, ratio
+/// tracking for grids), to the first other surface or the end.
+fn cross(
     scene: &Scene,
     mut o: Vec3,
     d: Vec3,
     dist: f32,
     mut medium: Option<u32>,
     s: &mut Sampler,
-) -> Rgb {
+) -> Crossing {
     let mut tr = Rgb::ONE;
     let mut left = dist;
     // Each pass-through interface moves the origin off the line by the ray offset; re-aim at the
@@ -38,13 +49,13 @@ pub(crate) fn shadow(
         if let Some(id) = medium {
             tr *= scene.media[id as usize].transmittance(o, d, t, s);
             if tr.max_element() <= 0.0 {
-                return Rgb::ZERO;
+                return Crossing::Blocked;
             }
         }
-        let Some(hit) = hit else { return tr };
+        let Some(hit) = hit else { return Crossing::Reached(tr) };
         let shape = &scene.shapes[hit.tag as usize];
         if scene.materials[shape.material as usize] != Material::Interface {
-            return Rgb::ZERO;
+            return Crossing::Surface(hit, tr);
         }
         medium = shape.medium_after(medium, -d, d, hit.ng);
         o = offset_origin(hit.p, hit.ng, d);
@@ -53,14 +64,30 @@ pub(crate) fn shadow(
                 let to_end = end - o;
                 left = to_end.length();
                 if left <= 0.0 || to_end.dot(d) <= 0.0 {
-                    return tr;
+                    return Crossing::Reached(tr);
                 }
                 d = to_end / left;
             }
             None => left = f32::INFINITY,
         }
     }
-    Rgb::ZERO
+    Crossing::Blocked
+}
+
+/// Transmittance from `o` along `d` over `dist`, starting in `medium`, through pass-through
+/// interfaces; zero if anything else is in the way.
+pub(crate) fn shadow(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    dist: f32,
+    medium: Option<u32>,
+    s: &mut Sampler,
+) -> Rgb {
+    match cross(scene, o, d, dist, medium, s) {
+        Crossing::Reached(tr) => tr,
+        Crossing::Surface(..) | Crossing::Blocked => Rgb::ZERO,
+    }
 }
 
 /// Power-heuristic weight of a strategy with density `a` against one with density `b`, written
@@ -101,36 +128,20 @@ pub(crate) fn next_event(
     fv * ls.value * shadow(scene, p, ls.wi, ls.dist, medium, s) * (weight / p_light)
 }
 
-/// Follows `o + t d` through pass-through interfaces to the first other surface, multiplying the
-/// transmittance of the media it crosses (exact for homogeneous media, ratio tracking for grids):
-/// that surface's hit and the transmittance up to it, or `None` if nothing is hit or no light
-/// gets through. For the direct light a sampled direction brings from an emitter.
-pub(crate) fn transmitted_hit(
+/// The first surface that is not pass-through along `o + t d` (starting in `medium`) and the
+/// transmittance up to it, or `None` if nothing is hit or no light gets through. For the direct
+/// light a sampled direction brings from an emitter.
+fn transmitted_hit(
     scene: &Scene,
-    mut o: Vec3,
+    o: Vec3,
     d: Vec3,
-    mut medium: Option<u32>,
+    medium: Option<u32>,
     s: &mut Sampler,
 ) -> Option<(Hit, Rgb)> {
-    let mut tr = Rgb::ONE;
-    for _ in 0..=MAX_CROSSINGS {
-        let hit = scene.intersect(o, d, f32::INFINITY);
-        if let Some(id) = medium {
-            let t = hit.map_or(f32::INFINITY, |h| h.t);
-            tr *= scene.media[id as usize].transmittance(o, d, t, s);
-            if tr.max_element() <= 0.0 {
-                return None;
-            }
-        }
-        let hit = hit?;
-        let shape = &scene.shapes[hit.tag as usize];
-        if scene.materials[shape.material as usize] != Material::Interface {
-            return Some((hit, tr));
-        }
-        medium = shape.medium_after(medium, -d, d, hit.ng);
-        o = offset_origin(hit.p, hit.ng, d);
+    match cross(scene, o, d, f32::INFINITY, medium, s) {
+        Crossing::Surface(hit, tr) => Some((hit, tr)),
+        Crossing::Reached(_) | Crossing::Blocked => None,
     }
-    None
 }
 
 /// Direct light at a diffuse surface point `hit` (seen from direction `wo`, in medium `medium`):
@@ -149,7 +160,7 @@ pub(crate) fn surface_direct(
     let ng = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
     let p = offset_origin(hit.p, ng, ng);
     let (hit_ng, hit_ns) = (hit.ng, hit.ns);
-    let mut l = next_event(
+    let l = next_event(
         scene,
         lights,
         p,
@@ -165,14 +176,29 @@ pub(crate) fn surface_direct(
     let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, 0.0, Transport::Radiance) else {
         return l;
     };
-    if let Some((emitter, tr)) = transmitted_hit(scene, p, bs.wi, medium, s) {
-        let shape = &scene.shapes[emitter.tag as usize];
-        if let Some(le) = shape.emission.filter(|_| (-bs.wi).dot(emitter.ng) > 0.0) {
-            let w = emission_weight(lights, &emitter, -bs.wi, p, bs.pdf);
-            l += bs.weight * tr * le * w;
-        }
+    l + emitted(scene, lights, p, bs.wi, bs.pdf, bs.weight, medium, s)
+}
+
+/// Light from an emitter that the direction `wi`, sampled at `from` with density `pdf_dir`,
+/// reaches straight away (through pass-through interfaces), times `weight` and the
+/// transmittance, weighed by MIS against next-event estimation; zero if it reaches none.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn emitted(
+    scene: &Scene,
+    lights: &LightSampler,
+    from: Vec3,
+    wi: Vec3,
+    pdf_dir: f32,
+    weight: Rgb,
+    medium: Option<u32>,
+    s: &mut Sampler,
+) -> Rgb {
+    let Some((hit, tr)) = transmitted_hit(scene, from, wi, medium, s) else { return Rgb::ZERO };
+    let shape = &scene.shapes[hit.tag as usize];
+    match shape.emission.filter(|_| (-wi).dot(hit.ng) > 0.0) {
+        Some(le) => weight * tr * le * emission_weight(lights, &hit, -wi, from, pdf_dir),
+        None => Rgb::ZERO,
     }
-    l
 }
 
 /// MIS weight of reaching an emitting shape at `hit` (seen from direction `wo`) by a direction

@@ -22,7 +22,7 @@
 //! only the transmittance strategy applies. Shadow rays pass through pass-through interfaces,
 //! with exact transmittance in homogeneous media and ratio tracking in grids.
 
-use super::direct::{emission_weight, power_heuristic, shadow, transmitted_hit};
+use super::direct::{emitted, power_heuristic, shadow};
 use crate::estimate::volume::EyeSegment;
 use crate::math::Rgb;
 use crate::medium::{Medium, SegmentTransmittance, TransmittanceDistance};
@@ -93,14 +93,14 @@ pub(crate) fn single_scattering(
     let mut sum = Rgb::ZERO;
     let (u_e, u_a) = (s.next_f32(), s.next_f32());
     let samples = [towards.as_ref().map(|e| e.sample(u_e)), along.as_ref().map(|a| a.sample(u_a))];
+    let light = Connection { lights, li, p_light, point: point.as_ref() };
     for (t, pdf) in samples.into_iter().flatten() {
-        let (p_e, p_a) = pdfs(t);
         if !(pdf > 0.0 && t.is_finite()) {
             continue;
         }
         // Balance heuristic: the weight over the density is 1 / (p_e + p_a).
+        let (p_e, p_a) = pdfs(t);
         let x = o + d * t;
-        let light = Connection { lights, li, p_light, point: point.as_ref() };
         let c = in_scattered(scene, (id, medium), x, d, &light, s);
         sum += tr.at(t) * c / (p_e + p_a);
     }
@@ -154,12 +154,6 @@ fn in_scattered(
         return sigma_s * l;
     }
     let wi = phase.sample(d, s.next_2d()).d_out;
-    if let Some((hit, tr)) = transmitted_hit(scene, x, wi, Some(id), s) {
-        let shape = &scene.shapes[hit.tag as usize];
-        if let Some(le) = shape.emission.filter(|_| (-wi).dot(hit.ng) > 0.0) {
-            let w = emission_weight(light.lights, &hit, -wi, x, phase.eval(d, wi));
-            l += le * tr * w;
-        }
-    }
-    sigma_s * l
+    let pdf = phase.eval(d, wi);
+    sigma_s * (l + emitted(scene, light.lights, x, wi, pdf, Rgb::ONE, Some(id), s))
 }
