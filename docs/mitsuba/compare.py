@@ -262,7 +262,13 @@ def main():
     ap.add_argument("--seconds", type=float, default=60)
     ap.add_argument("--reference-seconds", type=float, default=480)
     ap.add_argument("--agreement-seconds", type=float, default=240,
-                    help=f"Mitsuba time for the agreement check, split over {SEEDS} seeds")
+                    help="Mitsuba time for the agreement check, split over the seeds")
+    ap.add_argument("--seeds", type=int, default=SEEDS,
+                    help="independent renders behind each region mean and its standard error")
+    ap.add_argument("--agreement-only", action="store_true",
+                    help="skip the equal-time renders: only the reference and the agreement check")
+    ap.add_argument("--save", metavar="DIR",
+                    help="keep every seed's per-region means (NAME-regions.npz) for further analysis")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--haze", default=os.path.join(ROOT, "target", "release", "haze"))
     args = ap.parse_args()
@@ -289,29 +295,35 @@ def main():
                 bounces = desc.get("render", {}).get("max_bounces", 64)
                 res = [v // args.scale for v in desc["camera"]["resolution"]]
                 photons = ["-p", str(desc["render"]["photons"] // args.scale ** 2)]
-                # The reference: haze's path tracer, SEEDS seeds (their spread gives its standard
+                # The reference: haze's path tracer, over the seeds (their spread gives its standard
                 # errors per region).
-                refs = [haze_render(args.haze, scene_path, res, args.reference_seconds / SEEDS, "path",
+                refs = [haze_render(args.haze, scene_path, res, args.reference_seconds / args.seeds, "path",
                                     1000 + k, os.path.join(tmp, f"ref{k}.exr"), args.threads)
-                        for k in range(SEEDS)]
+                        for k in range(args.seeds)]
                 ref = np.mean(refs, axis=0)
-                ref_var = np.var(refs, axis=0, ddof=1) / SEEDS
+                ref_var = np.var(refs, axis=0, ddof=1) / args.seeds
                 scene = mi.load_dict(mitsuba_scene(mi, scene_path, res, bounces, tmp), parallel=False)
                 # Mitsuba's rate, then its long renders for the agreement check.
                 t0 = time.time()
                 mitsuba_render(mi, scene, 4, 1)
                 rate = 4 / (time.time() - t0)
-                long = [mitsuba_render(mi, scene, max(4, int(rate * args.agreement_seconds / SEEDS)), 100 + k)
-                        for k in range(SEEDS)]
+                long = [mitsuba_render(mi, scene, max(4, int(rate * args.agreement_seconds / args.seeds)), 100 + k)
+                        for k in range(args.seeds)]
                 r = np.array([regions(x) for x in long])
                 h = np.array([regions(x) for x in refs])
+                if args.save:
+                    np.savez(os.path.join(args.save, f"{name}-regions.npz"), mitsuba=r, haze=h)
                 diff = r.mean(axis=0) - h.mean(axis=0)
-                se = np.sqrt(r.var(axis=0, ddof=1) / SEEDS + h.var(axis=0, ddof=1) / SEEDS)
+                se = np.sqrt(r.var(axis=0, ddof=1) / args.seeds + h.var(axis=0, ddof=1) / args.seeds)
                 z = np.abs(diff) / np.maximum(se, 1e-12)
                 print(f"{name}: Mitsuba − haze per region (row-major, top row first), relative "
                       f"difference in % and z:\n{np.array2string(diff / regions(ref) * 100, precision=2)}"
                       f"\n{np.array2string(diff / np.maximum(se, 1e-12), precision=1)}", file=sys.stderr)
                 agree = f"max |z| {z.max():.1f}, max rel. diff {np.max(np.abs(diff) / regions(ref)) * 100:.2f} %"
+                if args.agreement_only:
+                    print(f"| {name} | | | | | {agree} |")
+                    sys.stdout.flush()
+                    continue
                 # Equal time.
                 spp = max(1, int(rate * args.seconds))
                 t0 = time.time()
