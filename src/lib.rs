@@ -55,6 +55,7 @@
 #![warn(missing_docs)]
 
 mod accel;
+mod atomic;
 mod dda;
 pub mod error;
 mod estimate;
@@ -78,7 +79,7 @@ pub use error::{Error, Result};
 pub use glam;
 pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};
-pub use render::render;
+pub use render::{MIN_RADIUS_FRACTION, PILOT_PATHS, memory_estimate, render};
 pub use scene::{Scene, SceneBuilder};
 pub use settings::{RenderOptions, RenderSettings};
 

@@ -1,6 +1,8 @@
 //! Rendered images and their files: OpenEXR (linear RGB, 32-bit float, with the render's metadata
-//! in the header) and a tone-mapped sRGB PNG preview.
+//! in the header) and a tone-mapped sRGB PNG preview. Every file is written atomically
+//! ([`write_atomically`]): a temporary file beside the target, renamed over it when complete.
 
+pub use crate::atomic::{check_writable, write_atomically, write_bytes};
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::settings::{Integrator, RenderSettings};
@@ -30,6 +32,11 @@ pub struct RenderInfo {
     pub scene: Option<PathBuf>,
     /// Eye-path samples that came out non-finite and were replaced by black (should be 0).
     pub nonfinite_samples: u64,
+    /// Trackings through VDB media cut at their step cap (2¹⁸ tentative collisions on one
+    /// segment) and treated as opaque: a biased darkening, zero in any sensible medium; a
+    /// non-zero count means the medium's extinction is too high for its grid (see
+    /// docs/scene-format.md).
+    pub truncated_trackings: u64,
 }
 
 /// A rendered image: linear RGB radiance, row-major, top row first.
@@ -89,7 +96,7 @@ impl Image {
         match extension(path).as_deref() {
             Some("exr") => {
                 self.write_exr(path)?;
-                let png = path.with_extension("png");
+                let png = preview_path(path);
                 self.write_png(&png, exposure)?;
                 Ok(vec![path.to_path_buf(), png])
             }
@@ -119,7 +126,7 @@ impl Image {
             return Err(out_err(exr_path, "a reference is an OpenEXR file: name it .exr"));
         }
         self.write_exr_with(exr_path, true)?;
-        let png = exr_path.with_extension("png");
+        let png = preview_path(exr_path);
         self.write_png(&png, exposure)?;
         Ok(vec![exr_path.to_path_buf(), png])
     }
@@ -176,6 +183,7 @@ impl Image {
         put("volumeInitialRadius", AttributeValue::F64(info.volume_initial_radius));
         put("elapsedSeconds", AttributeValue::F64(info.elapsed));
         put("nonfiniteSamples", text(info.nonfinite_samples.to_string()));
+        put("truncatedTrackings", text(info.truncated_trackings.to_string()));
         let scene = info.scene.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
         // EXR text attributes are byte strings; keep the scene path if it is representable.
         if let Some(t) = Text::new_or_none(scene.as_str()) {
@@ -184,7 +192,10 @@ impl Image {
         let size = (self.width as usize, self.height as usize);
         if !reference {
             let layer = Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels);
-            return Image::from_layer(layer).write().to_file(path).map_err(|e| out_err(path, e));
+            let image = Image::from_layer(layer);
+            return write_atomically(path, |w| {
+                image.write().to_buffered(w).map_err(|e| e.to_string())
+            });
         }
         let description = self.reference_description();
         attrs.other.insert(
@@ -200,7 +211,11 @@ impl Image {
         // the radius shrinks, and subtracting their spread would understate errors.
         let variance = match (&self.variance, self.info.settings.integrator) {
             (Some(v), Integrator::Path) => v,
-            _ => return image.write().to_file(path).map_err(|e| out_err(path, e)),
+            _ => {
+                return write_atomically(path, |w| {
+                    image.write().to_buffered(w).map_err(|e| e.to_string())
+                });
+            }
         };
         let var_channels = SpecificChannels::rgb(|p: Vec2<usize>| {
             let [r, g, b] = variance[p.y() * w + p.x()];
@@ -212,20 +227,40 @@ impl Image {
             Encoding::SMALL_LOSSLESS,
             var_channels,
         );
-        image.with_layer(var_layer).write().to_file(path).map_err(|e| out_err(path, e))
+        let image = image.with_layer(var_layer);
+        write_atomically(path, |w| image.write().to_buffered(w).map_err(|e| e.to_string()))
     }
 
-    /// Writes an 8-bit sRGB PNG after scaling by `exposure` and clamping.
+    /// Writes an 8-bit sRGB PNG after scaling by `exposure` and clamping, marked as haze's
+    /// (text chunk `Software` = `haze`, which [`is_haze_preview`] looks for).
     pub fn write_png(&self, path: &Path, exposure: f32) -> Result<()> {
-        let file = std::fs::File::create(path).map_err(|e| out_err(path, e))?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), self.width, self.height);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-        let mut writer = enc.write_header().map_err(|e| out_err(path, e))?;
         let data: Vec<u8> =
             self.pixels.iter().flat_map(|p| p.map(|c| srgb8(c * exposure))).collect();
-        writer.write_image_data(&data).map_err(|e| out_err(path, e))?;
-        writer.finish().map_err(|e| out_err(path, e))
+        write_atomically(path, |w| {
+            let mut enc = png::Encoder::new(w, self.width, self.height);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+            enc.add_text_chunk("Software".into(), "haze".into()).map_err(|e| e.to_string())?;
+            let mut writer = enc.write_header().map_err(|e| e.to_string())?;
+            writer.write_image_data(&data).map_err(|e| e.to_string())?;
+            writer.finish().map_err(|e| e.to_string())
+        })
     }
+}
+
+/// The PNG preview written beside an OpenEXR file by [`Image::write`]: the same name, `.png`.
+pub fn preview_path(exr: &Path) -> PathBuf {
+    exr.with_extension("png")
+}
+
+/// True if `path` is a PNG file haze wrote (it carries the text chunk `Software` = `haze`).
+/// Used to refuse overwriting an unrelated PNG that happens to sit beside an EXR output.
+pub fn is_haze_preview(path: &Path) -> bool {
+    let Ok(file) = std::fs::File::open(path) else { return false };
+    let Ok(reader) = png::Decoder::new(std::io::BufReader::new(file)).read_info() else {
+        return false;
+    };
+    let info = reader.info();
+    info.uncompressed_latin1_text.iter().any(|t| t.keyword == "Software" && t.text == "haze")
 }

@@ -14,8 +14,10 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 /// Renders `scene` with `settings`, reporting to `progress` after every iteration, until the
-/// iteration count or time limit is reached or `stop` is raised. An iteration interrupted by
-/// `stop` is discarded; every finished one is in the returned image.
+/// iteration count or time limit is reached or `stop` is raised. Both the time limit and `stop`
+/// are honoured inside an iteration (the passes look at them every row of pixels and every batch
+/// of light paths, so a stop takes effect within a fraction of a second); the iteration they
+/// interrupt is discarded, and every finished one is in the returned image.
 ///
 /// ```no_run
 /// use haze::{Scene, render, progress::Status};
@@ -36,6 +38,19 @@ pub fn render(
     stop: &AtomicBool,
 ) -> Result<Image> {
     settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
+    check_radii(scene, settings)?;
+    if let Some(total) = physical_memory() {
+        let need = memory_estimate(scene, settings);
+        if need > total {
+            return Err(Error::Settings(format!(
+                "photons = {} would need about {:.1} GB per iteration (measured on {PILOT_PATHS} \
+                 light paths of this scene), more than this machine's {:.1} GB; lower `photons`",
+                settings.photons,
+                need as f64 / 1e9,
+                total as f64 / 1e9
+            )));
+        }
+    }
     let start = Instant::now();
     let mut method = Method::new(scene, settings)?;
     let [width, height] = scene.camera.resolution;
@@ -43,6 +58,7 @@ pub fn render(
     let mut image = vec![crate::math::Rgb::ZERO; (width * height) as usize];
     let nonfinite = AtomicU64::new(0);
     let diagonal = scene.diagonal() as f64;
+    let truncated_before = scene.truncated_trackings();
     let info = |method: &Method, iterations: u64, nonfinite: &AtomicU64| {
         let (radius, volume_radius) = method.radii(iterations.max(1));
         RenderInfo {
@@ -56,28 +72,119 @@ pub fn render(
             elapsed: start.elapsed().as_secs_f64(),
             scene: scene.source.clone(),
             nonfinite_samples: nonfinite.load(Ordering::Relaxed),
+            truncated_trackings: scene.truncated_trackings() - truncated_before,
         }
     };
+    // The passes watch `halt`, raised by a watcher thread when `stop` is raised or the time
+    // limit passes, so that neither waits for the end of an iteration.
+    let halt = AtomicBool::new(false);
+    let finished = AtomicBool::new(false);
     let mut iteration = 0u64;
-    while !done(settings, iteration, start, stop) {
-        let i = iteration + 1;
-        let Some(times) = method.iterate(scene, i, stop, &nonfinite, &mut image) else {
-            break;
-        };
-        method.accumulate(&mut film, &image);
-        iteration = i;
-        let stored = method.photons_stored();
-        progress.iteration(&Status {
-            target_iterations: settings.iterations,
-            time_limit: settings.time_limit,
-            photons_stored: stored[0],
-            volume_photons_stored: stored[1],
-            times,
-            film: &film,
-            info: &info(&method, iteration, &nonfinite),
-        });
-    }
+    std::thread::scope(|scope| {
+        scope.spawn(|| watch(settings, start, stop, &halt, &finished));
+        // Ends the watcher however this closure ends (a panic included).
+        let _finish = RaiseOnDrop(&finished);
+        while !done(settings, iteration, start, stop) {
+            let i = iteration + 1;
+            let Some(times) = method.iterate(scene, i, &halt, &nonfinite, &mut image) else {
+                break;
+            };
+            method.accumulate(&mut film, &image);
+            iteration = i;
+            let stored = method.photons_stored();
+            progress.iteration(&Status {
+                target_iterations: settings.iterations,
+                time_limit: settings.time_limit,
+                photons_stored: stored[0],
+                volume_photons_stored: stored[1],
+                times,
+                film: &film,
+                info: &info(&method, iteration, &nonfinite),
+            });
+        }
+    });
     Ok(Image::from_film(&film, info(&method, iteration, &nonfinite)))
+}
+
+struct RaiseOnDrop<'a>(&'a AtomicBool);
+
+impl Drop for RaiseOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+}
+
+/// Raises `halt` when `stop` is raised or the time limit passes; returns when `finished` is.
+fn watch(
+    settings: &RenderSettings,
+    start: Instant,
+    stop: &AtomicBool,
+    halt: &AtomicBool,
+    finished: &AtomicBool,
+) {
+    while !finished.load(Ordering::Relaxed) {
+        let late = settings.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t);
+        if late || stop.load(Ordering::Relaxed) {
+            halt.store(true, Ordering::Relaxed);
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
+/// The smallest initial radius accepted, relative to the scene's bounding-box diagonal: below it
+/// positions in f32 cannot resolve the kernel and the photon density needed is absurd, so the
+/// image would come out black.
+pub const MIN_RADIUS_FRACTION: f64 = 1e-5;
+
+fn check_radii(scene: &Scene, settings: &RenderSettings) -> Result<()> {
+    if !settings.integrator.uses_photons() {
+        return Ok(());
+    }
+    let diagonal = scene.diagonal() as f64;
+    for (key, r) in [
+        ("radius", settings.initial_radius(diagonal)),
+        ("volume_radius", settings.initial_volume_radius(diagonal)),
+    ] {
+        if r < MIN_RADIUS_FRACTION * diagonal {
+            return Err(Error::Settings(format!(
+                "{key}: an initial radius of {r:e} is below {MIN_RADIUS_FRACTION:e} of the \
+                 scene's size (diagonal {diagonal:.4}); no photon would be found and the image \
+                 would be black"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Light paths traced to measure photons stored per path for [`memory_estimate`].
+pub const PILOT_PATHS: u64 = 1000;
+
+/// Bytes one iteration is expected to need: the photons its light paths store (measured by
+/// tracing [`PILOT_PATHS`] of them; twice, for the photon maps built from them) and the image
+/// buffers. An estimate: paths vary.
+pub fn memory_estimate(scene: &Scene, settings: &RenderSettings) -> u64 {
+    let [w, h] = scene.camera.resolution;
+    let image = w as u64 * h as u64 * 96; // film sums and squares (f64) and the iteration image
+    if !settings.integrator.uses_photons() || scene.lights.is_empty() {
+        return image;
+    }
+    let pilot = RenderSettings { photons: PILOT_PATHS.min(settings.photons), ..settings.clone() };
+    let mut mapper = crate::integrator::ppm::PhotonMapper::new(scene, &pilot);
+    mapper.trace(scene, 1, &AtomicBool::new(false));
+    let [surface, volume] = mapper.stored();
+    let per_path = (surface as f64 * std::mem::size_of::<crate::photon::Photon>() as f64
+        + volume as f64 * std::mem::size_of::<crate::photon::VolumePhoton>() as f64)
+        / pilot.photons as f64;
+    image + (2.0 * per_path * settings.photons as f64) as u64
+}
+
+/// Physical memory in bytes (Linux: /proc/meminfo), if known.
+fn physical_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// True once the iteration count or the time limit is reached, or a stop was requested.

@@ -4,7 +4,7 @@
 //! The chart is laid out once as a list of primitives (lines, markers, text) in pixel coordinates,
 //! which [`Chart::svg`] writes as SVG elements.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -286,8 +286,7 @@ impl Chart {
 
     /// Writes the SVG file.
     pub fn write_svg(&self, path: &Path) -> Result<()> {
-        std::fs::write(path, self.svg())
-            .map_err(|e| Error::Output { path: path.to_path_buf(), message: e.to_string() })
+        crate::output::write_bytes(path, self.svg().as_bytes())
     }
 }
 

@@ -11,7 +11,11 @@
 //! | vector and other non-float grids are read as floats | the grid's tree type must be `Tree_float_5_4_3` |
 //! | two grids of the same name: one is silently dropped | the header's grid count must match the distinct names |
 //! | root-level tiles are dropped | the voxels read (tiles included) must add up to the file's `file_voxel_count` |
+//! | a corrupt count or length makes it allocate up to 10¹⁸ bytes and **abort the process** | a structural pre-scan of the file's bytes (`vdbscan.rs`) checks every count and length against the file before vdb-rs reads it |
 //! | truncated or corrupt files: errors or panics | errors are reported; any panic is caught and reported |
+//!
+//! The file must be a regular file of at most [`MAX_FILE_BYTES`]; it is read into memory once,
+//! scanned, and parsed from there.
 //!
 //! Layout: a dense `Vec<f32>` over the bounding box of the active voxels, chosen by measurement
 //! (docs/performance.md): random trilinear lookups took 25 ns against 46–56 ns with 8³ bricks
@@ -20,8 +24,11 @@
 
 use crate::error::{Error, Result};
 use glam::{IVec3, Vec3};
-use std::io::{Read, Seek, SeekFrom};
+use std::io::{Read, Seek};
 use std::path::Path;
+
+/// Largest OpenVDB file accepted (bytes).
+pub const MAX_FILE_BYTES: u64 = 4 << 30;
 
 /// Largest dense grid accepted (voxels).
 pub const MAX_VOXELS: u64 = 1 << 27;
@@ -80,9 +87,9 @@ fn find_map_name(bytes: &[u8]) -> Option<String> {
 impl DensityGrid {
     /// Reads float grid `name` from the OpenVDB file at `path`.
     pub fn load(path: &Path, name: &str) -> Result<DensityGrid> {
-        let (mut vdb, len) = open(path)?;
+        let (mut vdb, bytes) = open(path, name)?;
         check_names(&vdb, path, name)?;
-        let gd = check_grid(&vdb, path, name, len)?;
+        let gd = check_grid(&vdb, path, name, &bytes)?;
         let (items, translation, voxel_size) = read_voxels(&mut vdb, &gd, path, name)?;
         densify(items, translation, voxel_size, path, name)
     }
@@ -123,18 +130,18 @@ impl DensityGrid {
     }
 }
 
-/// An OpenVDB reader over the file at `path`, and the file's length.
-fn open(path: &Path) -> Result<(vdb_rs::VdbReader<std::io::BufReader<std::fs::File>>, u64)> {
+type Reader = vdb_rs::VdbReader<std::io::Cursor<Vec<u8>>>;
+
+/// An OpenVDB reader over the bytes of the file at `path` (read once, and pre-scanned for the
+/// grid `name`), and the bytes.
+fn open(path: &Path, name: &str) -> Result<(Reader, Vec<u8>)> {
     let err = |m: String| volume_error(path, m);
-    let mut file = std::fs::File::open(path)
-        .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
-    let len = file.metadata().map(|m| m.len()).unwrap_or(0);
-    let mut magic = [0u8; 8];
-    if file.read_exact(&mut magic).is_err() || magic[..4] != [0x20, 0x42, 0x44, 0x56] {
+    let bytes = crate::scene::read_bounded(path, MAX_FILE_BYTES, "an OpenVDB file")?;
+    if bytes.len() < 8 || bytes[..4] != [0x20, 0x42, 0x44, 0x56] {
         return Err(err("not an OpenVDB file (bad magic number)".into()));
     }
-    file.seek(SeekFrom::Start(0)).map_err(|e| err(e.to_string()))?;
-    let reader = std::io::BufReader::new(file);
+    super::vdbscan::scan(&bytes, name).map_err(err)?;
+    let reader = std::io::Cursor::new(bytes.clone());
     let opened =
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb_rs::VdbReader::new(reader)));
     let vdb = match opened {
@@ -144,7 +151,7 @@ fn open(path: &Path) -> Result<(vdb_rs::VdbReader<std::io::BufReader<std::fs::Fi
             return Err(err("cannot read the file header (corrupt or unsupported)".into()));
         }
     };
-    Ok((vdb, len))
+    Ok((vdb, bytes))
 }
 
 /// Refuses grids that share a name (vdb-rs would keep only one), and names suffixed by OpenVDB
@@ -181,7 +188,7 @@ fn check_grid<R: Read + Seek>(
     vdb: &vdb_rs::VdbReader<R>,
     path: &Path,
     name: &str,
-    len: u64,
+    bytes: &[u8],
 ) -> Result<vdb_rs::GridDescriptor> {
     let err = |m: String| volume_error(path, m);
     let Some(gd) = vdb.grid_descriptors.get(name).cloned() else {
@@ -206,18 +213,12 @@ fn check_grid<R: Read + Seek>(
         return Err(err(format!("grid `{name}` is an instance of another grid; not supported")));
     }
     // The transform is serialised between the grid's start and its data blocks.
-    let end = gd.block_pos.min(len);
+    let end = gd.block_pos.min(bytes.len() as u64);
     if gd.grid_pos >= end {
         return Err(err(format!("grid `{name}`: corrupt grid offsets")));
     }
-    let mut head = vec![0u8; (end - gd.grid_pos).min(64 << 20) as usize];
-    {
-        let mut f = std::fs::File::open(path)
-            .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
-        f.seek(SeekFrom::Start(gd.grid_pos)).map_err(|e| err(e.to_string()))?;
-        f.read_exact(&mut head).map_err(|_| err(format!("grid `{name}`: file is truncated")))?;
-    }
-    match find_map_name(&head).as_deref() {
+    let head = &bytes[gd.grid_pos as usize..end.min(gd.grid_pos + (64 << 20)) as usize];
+    match find_map_name(head).as_deref() {
         Some("UniformScaleMap" | "UniformScaleTranslateMap" | "ScaleTranslateMap") => {}
         Some(other) => {
             return Err(err(format!(
@@ -424,5 +425,42 @@ mod tests {
         let p = dir.join("text.vdb");
         std::fs::write(&p, "not a volume at all").unwrap();
         expect_error(&p, "density", &["not an OpenVDB file"]);
+        expect_error(&dir, "density", &["is a directory"]);
+        expect_error(Path::new("/dev/zero"), "density", &["not a regular file"]);
+    }
+
+    /// The one-byte corruptions of issue 13 (media/README.md) on which vdb-rs 0.6 asked for
+    /// 10¹⁷–10¹⁸ bytes and the process aborted.
+    #[test]
+    fn corrupt_counts_are_refused_before_vdb_rs_allocates() {
+        for file in ["bad/holes-0x230c.vdb", "bad/cloud-0x3b3d6.vdb", "bad/box-0xec.vdb"] {
+            expect_error(&media(file), "density", &["corrupt file at byte", "remain"]);
+        }
+    }
+
+    /// Every byte of box.vdb set to 0x00, 0xff and flipped in turn: each load returns (a grid or
+    /// an error). An abort — what vdb-rs 0.6 does on a bad count — would take the test process
+    /// down with it, so this test cannot pass by accident.
+    #[test]
+    fn single_byte_mutations_of_a_grid_never_abort() {
+        let good = std::fs::read(media("box.vdb")).unwrap();
+        let dir = temp_dir("vdb-mutations");
+        let p = dir.join("m.vdb");
+        let (mut ok, mut refused) = (0, 0);
+        for i in 0..good.len() {
+            for v in [0x00, 0xff, good[i] ^ 0x08] {
+                if v == good[i] {
+                    continue;
+                }
+                let mut m = good.clone();
+                m[i] = v;
+                std::fs::write(&p, &m).unwrap();
+                match DensityGrid::load(&p, "density") {
+                    Ok(_) => ok += 1,
+                    Err(_) => refused += 1,
+                }
+            }
+        }
+        assert!(refused > 0 && ok + refused > 2 * good.len(), "{ok} loaded, {refused} refused");
     }
 }

@@ -14,6 +14,7 @@ pub mod grid;
 pub mod homogeneous;
 pub mod phase;
 pub mod vdb;
+mod vdbscan;
 
 use crate::math::Rgb;
 use crate::rng::Sampler;
@@ -165,6 +166,14 @@ fn step_areas(steps: &[(f32, f32)], t0: f32, t1: f32) -> Vec<f32> {
 }
 
 impl Medium {
+    /// Trackings cut at [`vdb::MAX_TRACKING_STEPS`] so far (always 0 for homogeneous media).
+    pub fn truncated_trackings(&self) -> u64 {
+        match self {
+            Medium::Homogeneous(_) => 0,
+            Medium::Vdb(v) => v.truncated_trackings(),
+        }
+    }
+
     /// Samples a collision along `o + t d`, 0 < t < `t_max` (`t_max` may be infinite).
     #[inline]
     pub fn sample_free_flight(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> FreeFlight {

@@ -30,6 +30,26 @@ use super::phase::HenyeyGreenstein;
 use crate::math::Rgb;
 use crate::rng::Sampler;
 use glam::{Affine3A, IVec3, Vec3};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Tentative collisions one tracking may draw along one segment. Real media never come near it
+/// (ratio tracking stops when its estimate reaches zero, delta tracking at its first real
+/// collision); a medium whose majorant dwarfs its density over long distances (σ_t = 10⁶ and
+/// more, or an overflowing μ̄ that stops t from advancing) would otherwise make one iteration take
+/// minutes or never end. A tracking that reaches the cap ends as if the segment were opaque
+/// (transmittance 0, the free flight absorbed) — biased, so every such event is counted and
+/// reported ([`VdbMedium::truncated_trackings`], the render's `truncatedTrackings`).
+pub const MAX_TRACKING_STEPS: u32 = 1 << 18;
+
+/// A count shared by the threads of a render (cloning starts a new count from the same value).
+#[derive(Debug, Default)]
+struct Counter(AtomicU64);
+
+impl Clone for Counter {
+    fn clone(&self) -> Self {
+        Counter(AtomicU64::new(self.0.load(Ordering::Relaxed)))
+    }
+}
 
 /// A VDB medium.
 #[derive(Clone, Debug)]
@@ -45,6 +65,8 @@ pub struct VdbMedium {
     majorant: Vec<f32>,
     cells: IVec3,
     lo: Vec3,
+    /// Trackings cut at [`MAX_TRACKING_STEPS`].
+    truncated: Counter,
 }
 
 /// A transmittance step function along one segment: `(t_k, T after t_k)`.
@@ -90,7 +112,17 @@ impl VdbMedium {
         }
         // Grey by construction (checked when the scene is built); average away f32 rounding.
         let sigma_t = (sigma_a + sigma_s).element_sum() / 3.0;
-        Self { grid, to_index, sigma_s, sigma_t, phase, majorant, cells, lo }
+        Self {
+            grid,
+            to_index,
+            sigma_s,
+            sigma_t,
+            phase,
+            majorant,
+            cells,
+            lo,
+            truncated: Counter::default(),
+        }
     }
 
     /// The phase function.
@@ -110,9 +142,15 @@ impl VdbMedium {
         self.sigma_s * self.density(p)
     }
 
+    /// Trackings so far cut at [`MAX_TRACKING_STEPS`] (zero in any sensible medium).
+    pub fn truncated_trackings(&self) -> u64 {
+        self.truncated.0.load(Ordering::Relaxed)
+    }
+
     /// Draws the tentative collisions of o + t d, t ∈ [0, t_max), at the rate of the majorant
     /// μ̄ of each majorant cell (empty cells cost one step), calling `f(t, σ_t(t), μ̄, sampler)` at
-    /// each; `f` returns `false` to stop.
+    /// each; `f` returns `false` to stop. Returns `false` if the walk was cut at
+    /// [`MAX_TRACKING_STEPS`] (counted).
     fn tentative(
         &self,
         o: Vec3,
@@ -120,7 +158,9 @@ impl VdbMedium {
         t_max: f32,
         s: &mut Sampler,
         mut f: impl FnMut(f32, f32, f32, &mut Sampler) -> bool,
-    ) {
+    ) -> bool {
+        let mut steps = 0u32;
+        let mut cut = false;
         // Coarse-cell coordinates: cell k spans [k, k + 1).
         let scale = 1.0 / MAJORANT_CELL as f32;
         let oc = (self.to_index.transform_point3(o) - self.lo) * scale;
@@ -133,6 +173,11 @@ impl VdbMedium {
             }
             let mut t = a;
             loop {
+                steps += 1;
+                if steps > MAX_TRACKING_STEPS {
+                    cut = true;
+                    return false;
+                }
                 t -= (1.0 - s.next_f32()).ln() / mu;
                 if t >= b {
                     return true;
@@ -142,6 +187,10 @@ impl VdbMedium {
                 }
             }
         });
+        if cut {
+            self.truncated.0.fetch_add(1, Ordering::Relaxed);
+        }
+        !cut
     }
 
     /// The part [t0, t1] of o + t d, 0 ≤ t ≤ `t_max`, inside the grid's majorant cells (the
@@ -170,13 +219,19 @@ impl VdbMedium {
     /// Delta tracking: a collision with pdf σ_t(t) T(0, t), weight 1/σ_t(t); or none, weight 1.
     pub fn sample_free_flight(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> FreeFlight {
         let mut hit: Option<(f32, f32)> = None;
-        self.tentative(o, d, t_max, s, |t, sigma_t, mu, s| {
+        let mut last = 0.0;
+        let complete = self.tentative(o, d, t_max, s, |t, sigma_t, mu, s| {
+            last = t;
             if s.next_f32() * mu < sigma_t {
                 hit = Some((t, sigma_t));
                 return false;
             }
             true
         });
+        if !complete {
+            // Cut: absorbed where the walk stopped.
+            return FreeFlight { t: last.min(t_max), scattered: true, weight: Rgb::ZERO };
+        }
         match hit {
             Some((t, sigma_t)) => {
                 FreeFlight { t, scattered: true, weight: Rgb::splat(1.0 / sigma_t) }
@@ -188,10 +243,13 @@ impl VdbMedium {
     /// Ratio tracking estimate of the transmittance over [0, t_max).
     pub fn transmittance(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> Rgb {
         let mut tr = 1.0f32;
-        self.tentative(o, d, t_max, s, |_, sigma_t, mu, _| {
+        let complete = self.tentative(o, d, t_max, s, |_, sigma_t, mu, _| {
             tr *= 1.0 - sigma_t / mu;
             tr > 0.0
         });
+        if !complete {
+            return Rgb::ZERO;
+        }
         Rgb::splat(tr.max(0.0))
     }
 
@@ -205,11 +263,16 @@ impl VdbMedium {
     ) -> TransmittanceSteps {
         let mut steps = Vec::new();
         let mut tr = 1.0f32;
-        self.tentative(o, d, t_max, s, |t, sigma_t, mu, _| {
+        let complete = self.tentative(o, d, t_max, s, |t, sigma_t, mu, _| {
             tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
             steps.push((t, tr));
             tr > 0.0
         });
+        if !complete {
+            // Opaque from where the walk stopped.
+            let last = steps.last().map_or(0.0, |&(t, _)| t);
+            steps.push((last, 0.0));
+        }
         steps
     }
 }

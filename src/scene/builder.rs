@@ -513,7 +513,11 @@ fn geometry(g: &GeometryDesc, t: &Transform, key: &str) -> Result<Geometry> {
             }
         }
         GeometryDesc::Mesh(mesh) => Geometry::Mesh(mesh.clone().transformed(&m)),
-        GeometryDesc::Obj(path) => Geometry::Mesh(shape::load_obj(path)?.transformed(&m)),
+        GeometryDesc::Obj(path) => Geometry::Mesh(
+            shape::load_obj(path)
+                .map_err(|e| invalid(format!("{key}.file"), e.to_string()))?
+                .transformed(&m),
+        ),
     })
 }
 

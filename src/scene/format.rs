@@ -11,11 +11,57 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue, ValueDeserializer};
 
 /// An RGB value, or one number for grey.
-#[derive(Debug, Clone, Copy, Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Clone, Copy)]
 pub enum ColorDef {
     Grey(f32),
     Rgb([f32; 3]),
+}
+
+/// One number or three, read with a message in the scene format's words (serde's untagged enums
+/// would say "data did not match any variant of untagged enum").
+struct OneOrThree(&'static str);
+
+impl<'de> serde::de::Visitor<'de> for OneOrThree {
+    type Value = (Option<f32>, [f32; 3]);
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(self.0)
+    }
+
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Self::Value, E> {
+        Ok((Some(v as f32), [v as f32; 3]))
+    }
+
+    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Self::Value, E> {
+        self.visit_f64(v as f64)
+    }
+
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Self::Value, E> {
+        self.visit_f64(v as f64)
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let mut out = [0.0f32; 3];
+        for (i, c) in out.iter_mut().enumerate() {
+            *c = seq
+                .next_element::<f32>()?
+                .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+        }
+        if seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+            return Err(serde::de::Error::invalid_length(4, &self));
+        }
+        Ok((None, out))
+    }
+}
+
+impl<'de> Deserialize<'de> for ColorDef {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = d.deserialize_any(OneOrThree("a colour: one number (grey) or [r, g, b]"))?;
+        Ok(match v {
+            (Some(g), _) => ColorDef::Grey(g),
+            (None, rgb) => ColorDef::Rgb(rgb),
+        })
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -136,11 +182,20 @@ pub struct TransformDef {
 }
 
 /// A uniform or per-axis scale.
-#[derive(Debug, Clone, Copy, Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Clone, Copy)]
 pub enum ScaleDef {
     Uniform(f32),
     Axes([f32; 3]),
+}
+
+impl<'de> Deserialize<'de> for ScaleDef {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = d.deserialize_any(OneOrThree("a scale: one number or [x, y, z]"))?;
+        Ok(match v {
+            (Some(u), _) => ScaleDef::Uniform(u),
+            (None, xyz) => ScaleDef::Axes(xyz),
+        })
+    }
 }
 
 /// Declares a shape table: its own fields plus the keys every shape has.
@@ -246,6 +301,61 @@ fn error(key: &str, at: usize, message: impl Into<String>) -> FormatError {
     FormatError { key: key.to_string(), at: Some(at), message: message.into() }
 }
 
+/// Longest quoted value repeated in a message (longer ones are cut).
+const MAX_QUOTED: usize = 60;
+
+/// A serde message in the scene format's words: Rust type names become what the file holds
+/// ("a number", "a whole number", "an array"), and long quoted values are cut.
+pub(crate) fn plain(message: &str) -> String {
+    let mut m = message.to_string();
+    if let Some(rest) = m.strip_prefix("invalid length ") {
+        if let Some((n, tail)) = rest.split_once(',') {
+            m = format!("{n} values,{tail}");
+        }
+    }
+    for (rust, words) in [
+        ("expected f32", "expected a number"),
+        ("expected f64", "expected a number"),
+        ("expected u8", "expected a whole number"),
+        ("expected u16", "expected a whole number"),
+        ("expected u32", "expected a whole number"),
+        ("expected u64", "expected a whole number"),
+        ("expected usize", "expected a whole number"),
+        ("expected i32", "expected a whole number"),
+        ("expected i64", "expected a whole number"),
+        ("expected a sequence", "expected an array"),
+        ("expected a boolean", "expected true or false"),
+        ("invalid type: ", ""),
+        ("invalid value: ", ""),
+        ("integer `", "`"),
+        ("floating point `", "`"),
+        ("sequence, expected", "an array, expected"),
+    ] {
+        m = m.replace(rust, words);
+    }
+    cut_quoted(&m)
+}
+
+/// Cuts every "…"-quoted part longer than [`MAX_QUOTED`] characters.
+fn cut_quoted(m: &str) -> String {
+    let mut out = String::with_capacity(m.len().min(1024));
+    let mut parts = m.split('"');
+    if let Some(first) = parts.next() {
+        out.push_str(first);
+    }
+    for (i, part) in parts.enumerate() {
+        out.push('"');
+        let n = part.chars().count();
+        if i % 2 == 0 && n > MAX_QUOTED {
+            out.extend(part.chars().take(MAX_QUOTED));
+            out.push_str(&format!("… ({n} characters)"));
+        } else {
+            out.push_str(part);
+        }
+    }
+    out
+}
+
 /// Deserialises one value, keeping the line of whatever inside it is wrong and, in a table, the
 /// key whose value it is.
 fn typed<T: DeserializeOwned>(v: &Value<'_>, key: &str) -> Result<T, FormatError> {
@@ -261,7 +371,7 @@ fn typed<T: DeserializeOwned>(v: &Value<'_>, key: &str) -> Result<T, FormatError
         FormatError {
             key: entry.map_or_else(|| key.to_string(), |k| format!("{key}.{k}")),
             at: at.or(Some(v.span().start)),
-            message: e.message().trim().to_string(),
+            message: plain(e.message().trim()),
         }
     })
 }

@@ -19,9 +19,19 @@ use glam::Vec3;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+/// Largest scene file read (bytes): far more than any hand-written scene.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 pub(super) fn load_file(path: &Path) -> Result<Scene> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|source| Error::Io { path: path.to_path_buf(), error: source })?;
+    let bytes = super::read_bounded(path, MAX_SCENE_BYTES, "a scene file")?;
+    let text = String::from_utf8(bytes).map_err(|e| Error::Parse {
+        path: path.to_path_buf(),
+        line: None,
+        message: format!(
+            "not UTF-8 text (invalid byte at offset {})",
+            e.utf8_error().valid_up_to()
+        ),
+    })?;
     let base = path.parent().unwrap_or(Path::new("."));
     load_str(&text, path, base)
 }

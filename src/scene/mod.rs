@@ -20,7 +20,7 @@ pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
 
 use crate::accel::{Accel, Hit};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::math::Rgb;
 use crate::medium::Medium;
 use crate::settings::RenderSettings;
@@ -29,6 +29,37 @@ use camera::Camera;
 use glam::Vec3;
 use light::Light;
 use std::path::{Path, PathBuf};
+
+/// Reads the file at `path` whole, refusing anything but a regular file (a FIFO would block, a
+/// device such as /dev/zero never end) and files larger than `max` bytes. `what` names the kind
+/// of file in messages, e.g. "a scene file".
+pub(crate) fn read_bounded(path: &Path, max: u64, what: &str) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
+    let refuse = |message: String| Error::Io {
+        path: path.to_path_buf(),
+        error: std::io::Error::new(std::io::ErrorKind::InvalidInput, message),
+    };
+    // stat first: opening a FIFO for reading would block until a writer came.
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        let kind = if meta.is_dir() { "a directory" } else { "not a regular file" };
+        return Err(refuse(format!("is {kind}; {what} must be a regular file")));
+    }
+    if meta.len() > max {
+        return Err(refuse(format!(
+            "{} bytes is more than haze reads as {what} ({max} bytes)",
+            meta.len()
+        )));
+    }
+    let file = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(max + 1).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > max {
+        return Err(refuse(format!("grew past {max} bytes while being read")));
+    }
+    Ok(bytes)
+}
 
 /// The media on the two sides of a shape's surface (pbrt's medium interface). The exterior is
 /// the side the surface normals point to; `None` is vacuum.
@@ -125,6 +156,12 @@ impl Scene {
     #[inline]
     pub(crate) fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
         self.accel.intersect(o, d, t_max)
+    }
+
+    /// Trackings through the scene's media cut at their step cap so far (see
+    /// `RenderInfo::truncated_trackings`).
+    pub(crate) fn truncated_trackings(&self) -> u64 {
+        self.media.iter().map(|m| m.truncated_trackings()).sum()
     }
 
     /// Length of the bounding box's diagonal (radius fractions are relative to it).

@@ -178,14 +178,21 @@ pub fn icosphere(center: Vec3, radius: f32, level: u32) -> Mesh {
     }
 }
 
-/// Loads every object of a Wavefront OBJ file as one triangle mesh.
+/// Largest OBJ file read (bytes).
+pub const MAX_OBJ_BYTES: u64 = 2 << 30;
+
+/// Loads every object of a Wavefront OBJ file as one triangle mesh. Material libraries
+/// (`mtllib`) are never opened: haze takes materials from the scene file.
 pub(crate) fn load_obj(path: &Path) -> Result<Mesh> {
     let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
-    if !path.is_file() {
+    if !path.exists() {
         return Err(mesh_err("no such file (OBJ paths are relative to the scene file)".into()));
     }
+    let bytes = super::read_bounded(path, MAX_OBJ_BYTES, "an OBJ file")?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| mesh_err(e.to_string()))?;
+    let (models, _) =
+        tobj::load_obj_buf(&mut bytes.as_slice(), &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+            .map_err(|e| mesh_err(e.to_string()))?;
     let mut mesh = Mesh::default();
     let mut all_normals = true;
     let mut normals = Vec::new();

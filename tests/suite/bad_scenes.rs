@@ -308,3 +308,38 @@ fn random_corruptions_of_a_scene_never_panic() {
         assert!(result.is_ok(), "panicked on:\n{text}");
     }
 }
+
+/// Errors speak the scene format, not Rust: no type names (`f32`, `ColorDef`, "untagged enum"),
+/// the full key with its line, and long values cut.
+#[test]
+fn messages_use_the_users_words() {
+    let bright = BODY.replace("power = 20", "power = \"bright\"");
+    let msg = expect_error(
+        &format!("{CAMERA}{bright}"),
+        &["lights[0].power", ":22", "\"bright\"", "a colour: one number (grey) or [r, g, b]"],
+    );
+    assert!(!msg.contains("untagged") && !msg.contains("ColorDef"), "{msg}");
+    let two = BODY.replace("power = 20", "power = [1, 2]");
+    expect_error(&format!("{CAMERA}{two}"), &["lights[0].power", "2 values"]);
+    let msg = expect_error(
+        &CAMERA.replace("fov = 40", "fov = \"40\"").to_string(),
+        &["camera.fov", ":6", "expected a number"],
+    );
+    assert!(!msg.contains("f32"), "{msg}");
+    let msg = expect_error(
+        &CAMERA.replace("resolution = [32, 32]", "resolution = [32.5, 32]"),
+        &["camera.resolution", "expected a whole number"],
+    );
+    assert!(!msg.contains("u32"), "{msg}");
+    let long = "x".repeat(100_000);
+    let msg = expect_error(
+        &format!("{}{BODY}", CAMERA.replace("fov = 40", &format!("fov = \"{long}\""))),
+        &["camera.fov", "(100000 characters)"],
+    );
+    assert!(msg.len() < 300, "the value was echoed whole ({} bytes)", msg.len());
+    let obj = BODY.replace(
+        "type = \"rectangle\"\nsize = [2, 2]",
+        "type = \"obj\"\nfile = \"no-such-mesh.obj\"",
+    );
+    expect_error(&format!("{CAMERA}{obj}"), &["shapes[0].file", ":13", "no-such-mesh.obj"]);
+}

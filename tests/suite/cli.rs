@@ -62,7 +62,7 @@ fn help_explains_the_options() {
 }
 
 #[test]
-fn ctrl_c_stops_cleanly_and_writes_the_image_so_far() {
+fn ctrl_c_stops_cleanly_writes_the_image_so_far_and_exits_130() {
     let dir = temp_dir("cli-interrupt");
     let out = dir.join("partial.exr");
     let scene = scene_path("cornell-box.toml");
@@ -78,8 +78,8 @@ fn ctrl_c_stops_cleanly_and_writes_the_image_so_far() {
     assert!(killed.success());
     let output = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{err}");
-    assert!(err.contains("(interrupted)"), "{err}");
+    assert_eq!(output.status.code(), Some(130), "{err}");
+    assert!(err.contains("(interrupted by SIGINT)"), "{err}");
     assert!(out.exists() && dir.join("partial.png").exists());
     let image = exr::prelude::read_first_rgba_layer_from_file(
         &out,

@@ -9,6 +9,7 @@ mod converge;
 mod determinism;
 mod media;
 mod output;
+mod reliability;
 mod scenes;
 mod stability;
 mod validation;

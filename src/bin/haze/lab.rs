@@ -1,11 +1,12 @@
 //! The lab's commands: `haze converge` (error against time) and `haze validate` (analytic media).
 
-use crate::{Overrides, check_output_dir, stop_on_ctrl_c, thread_pool};
-use anyhow::{Context, Result, bail};
+use crate::signals::Interrupt;
+use crate::{Overrides, check_output_dir, max_threads, thread_pool};
+use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
+use std::process::ExitCode;
 use std::time::Instant;
 
 #[derive(Args)]
@@ -68,7 +69,7 @@ pub(crate) struct ConvergeArgs {
     quiet: bool,
 }
 
-pub(crate) fn converge(args: ConvergeArgs) -> Result<()> {
+pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
     use haze::lab::converge::{self, Plan, Reference};
     let scene = args.overrides.load_scene(&args.scene)?;
     let base = args.overrides.settings(&scene.settings)?;
@@ -94,7 +95,8 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<()> {
     let prefix = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("converge-{stem}")));
     check_output_dir("--output", &prefix)?;
     let pool = thread_pool(args.overrides.threads)?;
-    let stop = stop_on_ctrl_c();
+    let interrupt = Interrupt::install()?;
+    let stop = interrupt.flag();
     let plan = Plan {
         seconds: time,
         runs: args.runs,
@@ -115,8 +117,8 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<()> {
         bar.set_position((done * 1000.0) as u64);
         bar.set_message(format!("{} (run {}/{runs})", labels[si], run + 1));
     };
-    let samples = pool
-        .install(|| converge::run(&scene, &series, &reference, &plan, &mut on_progress, &stop))?;
+    let samples =
+        pool.install(|| converge::run(&scene, &series, &reference, &plan, &mut on_progress, stop))?;
     bar.finish_and_clear();
     let summaries = converge::summarize(&scene, &series, &samples, args.runs);
     let title = args.title.clone().unwrap_or_else(|| {
@@ -126,12 +128,13 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<()> {
     let chart = converge::chart(&title, &summaries);
     let table = converge::markdown(&summaries);
     let with = |ext: &str| PathBuf::from(format!("{}.{ext}", prefix.display()));
-    let write = |p: PathBuf, data: String| {
-        std::fs::write(&p, data).with_context(|| format!("cannot write {}", p.display()))
-    };
-    write(with("csv"), converge::csv(&series, &samples))?;
-    write(with("md"), table.clone())?;
-    chart.write_svg(&with("svg"))?;
+    interrupt.writing(|| -> Result<()> {
+        let write = |p: PathBuf, data: String| haze::output::write_bytes(&p, data.as_bytes());
+        write(with("csv"), converge::csv(&series, &samples))?;
+        write(with("md"), table.clone())?;
+        chart.write_svg(&with("svg"))?;
+        Ok(())
+    })?;
     println!("{table}");
     println!(
         "reference: {} ({}); {} run(s) of {:.0} s per series, {} threads",
@@ -142,16 +145,26 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<()> {
         pool.current_num_threads()
     );
     println!("wrote {}.{{csv,md,svg}}", prefix.display());
-    if stop.load(Ordering::Relaxed) {
-        eprintln!("interrupted: the files hold the checkpoints reached so far");
+    if let Some(code) = interrupt.exit_code() {
+        eprintln!(
+            "interrupted by {}: the files hold the checkpoints reached so far",
+            interrupt.name().unwrap_or("a signal")
+        );
+        return Ok(code);
     }
-    Ok(())
+    Ok(ExitCode::SUCCESS)
 }
 
-pub(crate) fn validate(args: ValidateArgs) -> Result<()> {
+pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
     use haze::lab::validate::{self, Effort};
-    if args.threads == Some(0) {
-        bail!("--threads must be at least 1");
+    if let Some(t) = args.threads.filter(|&t| t == 0 || t > max_threads()) {
+        bail!("--threads {t}: must lie in 1..={}", max_threads());
+    }
+    if let Some(p) = &args.markdown {
+        check_output_dir("--markdown", p)?;
+    }
+    if let Some(p) = &args.csv {
+        check_output_dir("--csv", p)?;
     }
     if !args.media.join("box.vdb").is_file() {
         bail!(
@@ -190,15 +203,14 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<()> {
         start.elapsed().as_secs_f64()
     );
     if let Some(p) = &args.markdown {
-        std::fs::write(p, &table).with_context(|| format!("cannot write {}", p.display()))?;
+        haze::output::write_bytes(p, table.as_bytes())?;
     }
     if let Some(p) = &args.csv {
-        std::fs::write(p, validate::csv(&rows))
-            .with_context(|| format!("cannot write {}", p.display()))?;
+        haze::output::write_bytes(p, validate::csv(&rows).as_bytes())?;
     }
     let failed = rows.iter().filter(|r| !r.pass()).count();
     if failed > 0 {
         bail!("{failed} of {} cases disagree with their references", rows.len());
     }
-    Ok(())
+    Ok(ExitCode::SUCCESS)
 }

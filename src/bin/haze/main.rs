@@ -4,14 +4,13 @@
 mod bench;
 mod lab;
 mod render;
+mod signals;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use haze::{RenderOptions, RenderSettings, Scene};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// haze: a progressive photon mapper for participating media.
 #[derive(Parser)]
@@ -87,11 +86,22 @@ impl Overrides {
         if let Err(e) = s.validate() {
             bail!("--{} (or the scene's render.{}): {}", flag(e.key), e.key, e.message);
         }
-        if self.threads == Some(0) {
-            bail!("--threads must be at least 1");
+        if let Some(t) = self.threads {
+            let max = max_threads();
+            if t == 0 || t > max {
+                bail!(
+                    "--threads {t}: must lie in 1..={max} (8 per core on this machine; more \
+                     only adds overhead)"
+                );
+            }
         }
         Ok(s)
     }
+}
+
+/// The most worker threads accepted: 8 per core.
+fn max_threads() -> usize {
+    8 * std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
@@ -102,33 +112,16 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     b.build().context("cannot start worker threads")
 }
 
-/// A flag raised by Ctrl-C; a second Ctrl-C exits at once.
-fn stop_on_ctrl_c() -> Arc<AtomicBool> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    let _ = ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
-        }
-    });
-    stop
-}
-
-/// Refuses an output path whose directory does not exist.
+/// Refuses, before any work, an output path that cannot be written.
 fn check_output_dir(what: &str, path: &Path) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            bail!("{what} {}: directory {} does not exist", path.display(), dir.display());
-        }
-    }
-    Ok(())
+    haze::output::check_writable(path).with_context(|| what.to_string())
 }
 
-fn run() -> Result<()> {
+fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
         Command::Render(a) => render::run(a),
-        Command::Bench(a) => bench::run(a),
+        Command::Bench(a) => bench::run(a).map(|()| ExitCode::SUCCESS),
         Command::Validate(a) => lab::validate(a),
         Command::Converge(a) => lab::converge(a),
     }
@@ -148,7 +141,7 @@ fn main() -> ExitCode {
         }
     }));
     match run() {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

@@ -1,6 +1,7 @@
 //! `haze render`: a scene file to OpenEXR and a PNG preview, with a progress bar.
 
-use crate::{Overrides, check_output_dir, default_output, stop_on_ctrl_c, thread_pool};
+use crate::signals::Interrupt;
+use crate::{Overrides, check_output_dir, default_output, thread_pool};
 use anyhow::{Result, bail};
 use clap::Args;
 use haze::RenderSettings;
@@ -8,7 +9,7 @@ use haze::progress::Status;
 use haze::settings::Integrator;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
+use std::process::ExitCode;
 use std::time::Instant;
 
 #[derive(Args)]
@@ -37,7 +38,9 @@ pub(crate) struct RenderArgs {
     quiet: bool,
 }
 
-pub(crate) fn run(args: RenderArgs) -> Result<()> {
+/// Renders; the exit code is 0, or 128 + the signal's number if SIGINT (130) or SIGTERM (143)
+/// stopped the render (what was finished is written first).
+pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let scene = args.overrides.load_scene(&args.scene)?;
     let settings = args.overrides.settings(&scene.settings)?;
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
@@ -54,8 +57,21 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         ),
     }
     check_output_dir("--output", &output)?;
+    let preview = haze::output::preview_path(&output);
+    if output.extension().is_some_and(|e| e == "exr")
+        && preview.exists()
+        && !haze::output::is_haze_preview(&preview)
+    {
+        bail!(
+            "--output {}: its PNG preview would replace {}, which haze did not write; move that \
+             file away or choose another output name",
+            output.display(),
+            preview.display()
+        );
+    }
     let pool = thread_pool(args.overrides.threads)?;
-    let stop = stop_on_ctrl_c();
+    let interrupt = Interrupt::install()?;
+    let stop = interrupt.flag();
     let bar = if args.quiet { ProgressBar::hidden() } else { progress_bar(&settings) };
     let mut last_snapshot = Instant::now();
     let mut snapshot_error = None;
@@ -64,27 +80,39 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         if let Some(every) = args.snapshot_every {
             if last_snapshot.elapsed().as_secs_f64() >= every {
                 last_snapshot = Instant::now();
-                if let Err(e) = s.snapshot().write(&output, args.exposure) {
+                let image = s.snapshot();
+                if let Err(e) = interrupt.writing(|| image.write(&output, args.exposure)) {
                     snapshot_error.get_or_insert(e);
                 }
             }
         }
     };
-    let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, &stop))?;
+    let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, stop))?;
     bar.finish_and_clear();
     if let Some(e) = snapshot_error {
         eprintln!("warning: a snapshot could not be written: {e}");
     }
     if image.info.iterations == 0 {
-        bail!("stopped before the first iteration finished; nothing written");
+        if let (Some(name), Some(code)) = (interrupt.name(), interrupt.exit_code()) {
+            eprintln!("error: {name} before the first iteration finished; nothing written");
+            return Ok(code);
+        }
+        bail!(
+            "the time limit ({} s) ended before the first iteration finished; nothing written \
+             (allow more time, or lower the photons or the resolution)",
+            settings.time_limit.unwrap_or(0.0)
+        );
     }
-    let written = if args.reference {
-        image.write_reference(&output, args.exposure)?
-    } else {
-        image.write(&output, args.exposure)?
-    };
+    let written = interrupt.writing(|| {
+        if args.reference {
+            image.write_reference(&output, args.exposure)
+        } else {
+            image.write(&output, args.exposure)
+        }
+    })?;
     let i = &image.info;
-    let interrupted = if stop.load(Ordering::Relaxed) { " (interrupted)" } else { "" };
+    let interrupted =
+        interrupt.name().map(|n| format!(" (interrupted by {n})")).unwrap_or_default();
     let work = match i.settings.integrator {
         Integrator::PhotonMapping | Integrator::Hybrid => {
             format!("{} light paths, final radius {:.5}", i.light_paths, i.radius)
@@ -101,7 +129,15 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
     if i.nonfinite_samples > 0 {
         eprintln!("warning: {} non-finite samples were replaced by black", i.nonfinite_samples);
     }
-    Ok(())
+    if i.truncated_trackings > 0 {
+        eprintln!(
+            "warning: {} trackings through VDB media reached the step cap and were treated as \
+             opaque (the image is too dark there): the medium's extinction is extreme for its \
+             grid; see docs/scene-format.md",
+            i.truncated_trackings
+        );
+    }
+    Ok(interrupt.exit_code().unwrap_or(ExitCode::SUCCESS))
 }
 
 fn progress_bar(settings: &RenderSettings) -> ProgressBar {
