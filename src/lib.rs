@@ -76,6 +76,35 @@ pub mod settings;
 mod testing;
 
 pub use error::{Error, Result};
+
+/// Entry points for the fuzz targets (`fuzz/`) and the suite's corpus replay: each parser on
+/// bytes in memory, as the loaders run it on a file's contents. Not a stable API.
+#[doc(hidden)]
+pub mod fuzzing {
+    use std::path::Path;
+
+    /// The scene parser and builder on scene text (file references resolve against a directory
+    /// that does not exist, so they fail as missing files).
+    pub fn scene(text: &str) -> crate::Result<()> {
+        crate::Scene::from_toml(text, Path::new("fuzz.toml"), Path::new("/nonexistent")).map(|_| ())
+    }
+
+    /// The OBJ loader on a file's bytes.
+    pub fn obj(bytes: &[u8]) -> crate::Result<()> {
+        crate::scene::shape::obj_from_bytes(bytes, Path::new("fuzz.obj")).map(|_| ())
+    }
+
+    /// The OpenVDB loader (pre-scan, vdb-rs, checks, dense copy) on a file's bytes, grid
+    /// `density`.
+    pub fn vdb(bytes: &[u8]) -> crate::Result<()> {
+        crate::medium::grid::DensityGrid::from_bytes(
+            bytes.to_vec(),
+            Path::new("fuzz.vdb"),
+            "density",
+        )
+        .map(|_| ())
+    }
+}
 pub use glam;
 pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};

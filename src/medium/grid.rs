@@ -87,7 +87,13 @@ fn find_map_name(bytes: &[u8]) -> Option<String> {
 impl DensityGrid {
     /// Reads float grid `name` from the OpenVDB file at `path`.
     pub fn load(path: &Path, name: &str) -> Result<DensityGrid> {
-        let (mut vdb, bytes) = open(path, name)?;
+        let bytes = crate::scene::read_bounded(path, MAX_FILE_BYTES, "an OpenVDB file")?;
+        Self::from_bytes(bytes, path, name)
+    }
+
+    /// Reads float grid `name` from the bytes of an OpenVDB file (`path` names it in messages).
+    pub fn from_bytes(bytes: Vec<u8>, path: &Path, name: &str) -> Result<DensityGrid> {
+        let (mut vdb, bytes) = open(bytes, path, name)?;
         check_names(&vdb, path, name)?;
         let gd = check_grid(&vdb, path, name, &bytes)?;
         let (items, translation, voxel_size) = read_voxels(&mut vdb, &gd, path, name)?;
@@ -132,11 +138,10 @@ impl DensityGrid {
 
 type Reader = vdb_rs::VdbReader<std::io::Cursor<Vec<u8>>>;
 
-/// An OpenVDB reader over the bytes of the file at `path` (read once, and pre-scanned for the
-/// grid `name`), and the bytes.
-fn open(path: &Path, name: &str) -> Result<(Reader, Vec<u8>)> {
+/// An OpenVDB reader over the bytes of the file at `path` (pre-scanned for the grid `name`), and
+/// the bytes.
+fn open(bytes: Vec<u8>, path: &Path, name: &str) -> Result<(Reader, Vec<u8>)> {
     let err = |m: String| volume_error(path, m);
-    let bytes = crate::scene::read_bounded(path, MAX_FILE_BYTES, "an OpenVDB file")?;
     if bytes.len() < 8 || bytes[..4] != [0x20, 0x42, 0x44, 0x56] {
         return Err(err("not an OpenVDB file (bad magic number)".into()));
     }

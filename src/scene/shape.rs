@@ -189,9 +189,15 @@ pub(crate) fn load_obj(path: &Path) -> Result<Mesh> {
         return Err(mesh_err("no such file (OBJ paths are relative to the scene file)".into()));
     }
     let bytes = super::read_bounded(path, MAX_OBJ_BYTES, "an OBJ file")?;
+    obj_from_bytes(&bytes, path)
+}
+
+/// Parses the bytes of a Wavefront OBJ file (`path` names it in messages) as one triangle mesh.
+pub(crate) fn obj_from_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
+    let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, _) =
-        tobj::load_obj_buf(&mut bytes.as_slice(), &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+        tobj::load_obj_buf(&mut &bytes[..], &opts, |_| Err(tobj::LoadError::OpenFileFailed))
             .map_err(|e| mesh_err(e.to_string()))?;
     let mut mesh = Mesh::default();
     let mut all_normals = true;
