@@ -88,6 +88,29 @@ pub struct Accel {
     tags: Vec<u32>,
 }
 
+impl Accel {
+    /// Feeds every primitive (in BVH order) and its tag to `feed`, for a scene's fingerprint.
+    pub(crate) fn fingerprint(&self, feed: &mut dyn FnMut(&[u8])) {
+        let mut floats = |xs: &[f32]| xs.iter().for_each(|x| feed(&x.to_le_bytes()));
+        for p in &self.prims {
+            match p {
+                Stored::Triangle(t, normals) => {
+                    floats(&[
+                        t.v0.x, t.v0.y, t.v0.z, t.e1.x, t.e1.y, t.e1.z, t.e2.x, t.e2.y, t.e2.z,
+                    ]);
+                    if let Some(n) = normals {
+                        n.iter().for_each(|v| floats(&v.to_array()));
+                    }
+                }
+                Stored::Sphere(c, r) => floats(&[c.x, c.y, c.z, *r]),
+            }
+        }
+        for t in &self.tags {
+            feed(&t.to_le_bytes());
+        }
+    }
+}
+
 /// How far a ray's origin is moved back along the ray before traversal (see [`to_ray`]).
 const BACK_OFF: f32 = 2e-4;
 

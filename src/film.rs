@@ -1,31 +1,51 @@
-//! Accumulation of iteration images: a running sum in f64 and the number of iterations, so the
-//! image is the mean of the iterations (Knaus & Zwicker 2011, eq. 4). A running sum of squares
-//! gives each pixel's sample variance over the iterations, from which references carry an
-//! estimate of their own noise.
+//! Accumulation of iteration images: exact fixed-point sums and the number of iterations, so the
+//! image is the mean of the iterations (Knaus & Zwicker 2011, eq. 4). A sum of squares gives each
+//! pixel's sample variance over the iterations, from which references carry an estimate of their
+//! own noise.
+//!
+//! **Exact sums.** Every iteration value (an f32) is rounded once to the nearest multiple of
+//! 2⁻⁶⁰ (≈ 8.7 · 10⁻¹⁹) and added as a 128-bit integer; its square (exact in f64: 24 + 24
+//! mantissa bits) likewise. Integer addition is associative, so the sums over a set of iterations
+//! do not depend on the order or grouping in which they were added: a render split into ranges —
+//! on other threads, processes or machines — and merged ([`Film::merge`]) has exactly the sums of
+//! one render of all the iterations, and so a bit-identical image. (Floating-point sums would
+//! differ in their last bits with the grouping.) The range is ±2⁶⁷ ≈ 1.5 · 10²⁰ per sum; a value
+//! that would leave it saturates and is counted ([`Film::saturated`]).
 
 use crate::math::Rgb;
-use glam::DVec3;
+
+/// Fixed-point scale: sums hold value · 2⁶⁰.
+const SCALE: f64 = (1u64 << 60) as f64;
 
 /// The accumulated render.
-#[derive(Clone)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     width: u32,
     height: u32,
-    sum: Vec<DVec3>,
-    sum_sq: Vec<DVec3>,
+    sum: Vec<[i128; 3]>,
+    sum_sq: Vec<[i128; 3]>,
     iterations: u64,
+    saturated: u64,
+}
+
+/// `v` in fixed point (rounded to the nearest multiple of 2⁻⁶⁰); `None` if out of range.
+#[inline]
+fn fixed(v: f64) -> Option<i128> {
+    let x = (v * SCALE).round(); // scaling by a power of two is exact
+    (x.is_finite() && x.abs() < 2f64.powi(126)).then_some(x as i128)
 }
 
 impl Film {
     /// An empty film.
     pub fn new(width: u32, height: u32) -> Self {
-        let n = (width * height) as usize;
+        let n = width as usize * height as usize;
         Self {
             width,
             height,
-            sum: vec![DVec3::ZERO; n],
-            sum_sq: vec![DVec3::ZERO; n],
+            sum: vec![[0; 3]; n],
+            sum_sq: vec![[0; 3]; n],
             iterations: 0,
+            saturated: 0,
         }
     }
 
@@ -44,21 +64,57 @@ impl Film {
         self.iterations
     }
 
+    /// Values that fell outside the fixed-point range and were saturated (0 in any sane render).
+    pub fn saturated(&self) -> u64 {
+        self.saturated
+    }
+
     /// Adds one finished iteration image (row-major, top row first).
     pub fn add(&mut self, image: &[Rgb]) {
         debug_assert_eq!(image.len(), self.sum.len());
+        let mut saturated = 0;
+        let mut put = |acc: &mut i128, v: f64| {
+            let (x, bad) = match fixed(v) {
+                Some(x) => acc.overflowing_add(x),
+                None => (0, true),
+            };
+            if bad {
+                saturated += 1;
+                *acc = if v.is_sign_negative() { i128::MIN } else { i128::MAX };
+            } else {
+                *acc = x;
+            }
+        };
         for ((s, q), p) in self.sum.iter_mut().zip(&mut self.sum_sq).zip(image) {
-            let v = p.as_dvec3();
-            *s += v;
-            *q += v * v;
+            for c in 0..3 {
+                let v = p[c] as f64;
+                put(&mut s[c], v);
+                put(&mut q[c], v * v);
+            }
         }
+        self.saturated += saturated;
         self.iterations += 1;
+    }
+
+    /// Adds the sums of another film of the same size (disjoint iterations, e.g. another range
+    /// of the same render). Exact: the result does not depend on the order of merging.
+    pub fn merge(&mut self, other: &Film) {
+        assert_eq!((self.width, self.height), (other.width, other.height), "film sizes differ");
+        let add = |a: &mut i128, b: i128| *a = a.saturating_add(b);
+        for (s, o) in self.sum.iter_mut().zip(&other.sum) {
+            (0..3).for_each(|c| add(&mut s[c], o[c]));
+        }
+        for (s, o) in self.sum_sq.iter_mut().zip(&other.sum_sq) {
+            (0..3).for_each(|c| add(&mut s[c], o[c]));
+        }
+        self.iterations += other.iterations;
+        self.saturated += other.saturated;
     }
 
     /// The mean of the iterations so far (black before the first).
     pub fn mean(&self) -> Vec<[f32; 3]> {
         let inv = if self.iterations == 0 { 0.0 } else { 1.0 / self.iterations as f64 };
-        self.sum.iter().map(|s| (*s * inv).as_vec3().to_array()).collect()
+        self.sum.iter().map(|s| s.map(|x| (x as f64 / SCALE * inv) as f32)).collect()
     }
 
     /// Each pixel's estimated variance of the mean: the sample variance of its iteration values
@@ -74,9 +130,13 @@ impl Film {
             .iter()
             .zip(&self.sum_sq)
             .map(|(s, q)| {
-                let mean = *s / n;
-                let var = ((*q - *s * mean) / (n - 1.0)).max(DVec3::ZERO);
-                (var / n).as_vec3().to_array()
+                let mut out = [0.0f32; 3];
+                for c in 0..3 {
+                    let (s, q) = (s[c] as f64 / SCALE, q[c] as f64 / SCALE);
+                    let var = ((q - s * s / n) / (n - 1.0)).max(0.0);
+                    out[c] = (var / n) as f32;
+                }
+                out
             })
             .collect()
     }
@@ -89,8 +149,68 @@ impl Film {
         self.iterations += 1;
         let n = self.iterations as f64;
         for ((s, q), p) in self.sum.iter_mut().zip(&mut self.sum_sq).zip(image) {
-            *s = p.as_dvec3() * n;
-            *q = *s * *s / n;
+            for c in 0..3 {
+                let total = p[c] as f64 * n;
+                s[c] = fixed(total).unwrap_or(0);
+                q[c] = fixed(total * total / n).unwrap_or(0);
+            }
         }
+    }
+
+    /// The raw sums, for partial-render files: per pixel the sums of values and of squares, in
+    /// units of 2⁻⁶⁰.
+    pub(crate) fn sums(&self) -> (&[[i128; 3]], &[[i128; 3]]) {
+        (&self.sum, &self.sum_sq)
+    }
+
+    /// A film from raw sums (see [`Self::sums`]).
+    pub(crate) fn from_sums(
+        width: u32,
+        height: u32,
+        sum: Vec<[i128; 3]>,
+        sum_sq: Vec<[i128; 3]>,
+        iterations: u64,
+        saturated: u64,
+    ) -> Self {
+        Self { width, height, sum, sum_sq, iterations, saturated }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Values spread over many orders of magnitude, added in two groupings: floating-point sums
+    /// would differ in their last bits; the fixed-point sums are identical.
+    #[test]
+    fn sums_do_not_depend_on_grouping() {
+        let images: Vec<Vec<Rgb>> = (0..50)
+            .map(|k| {
+                let v = (1.7f32).powi(k % 23 - 11) * (1.0 + k as f32 * 0.013);
+                vec![Rgb::new(v, v * 1e-6, v * 3e5); 4]
+            })
+            .collect();
+        let mut one = Film::new(2, 2);
+        images.iter().for_each(|i| one.add(i));
+        let (mut a, mut b, mut c) = (Film::new(2, 2), Film::new(2, 2), Film::new(2, 2));
+        images[..17].iter().for_each(|i| a.add(i));
+        images[17..30].iter().for_each(|i| b.add(i));
+        images[30..].iter().for_each(|i| c.add(i));
+        c.merge(&a);
+        c.merge(&b);
+        assert_eq!(c, one);
+        assert_eq!(c.mean(), one.mean());
+        // The mean agrees with an f64 mean to f32 precision.
+        let exact: f64 = images.iter().map(|i| i[0].x as f64).sum::<f64>() / 50.0;
+        assert!((one.mean()[0][0] as f64 / exact - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn out_of_range_values_saturate_and_are_counted() {
+        let mut f = Film::new(1, 1);
+        f.add(&[Rgb::new(1e30, 1.0, -1e30)]);
+        assert_eq!(f.saturated(), 4); // 1e30 and its square, -1e30 and its square
+        assert!(f.mean()[0][0] > 1e19);
+        assert_eq!(f.mean()[0][1], 1.0);
     }
 }

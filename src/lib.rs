@@ -66,6 +66,7 @@ pub mod lab;
 mod math;
 mod medium;
 pub mod output;
+pub mod partial;
 mod photon;
 pub mod progress;
 mod render;
@@ -108,7 +109,10 @@ pub mod fuzzing {
 pub use glam;
 pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};
-pub use render::{MIN_RADIUS_FRACTION, PILOT_PATHS, memory_estimate, render};
+pub use partial::Partial;
+pub use render::{
+    MIN_RADIUS_FRACTION, PILOT_PATHS, Start, memory_estimate, render, render_partial,
+};
 pub use scene::{Scene, SceneBuilder};
 pub use settings::{RenderOptions, RenderSettings};
 

@@ -14,7 +14,9 @@ use std::path::{Path, PathBuf};
 pub struct RenderInfo {
     /// The settings it was rendered with.
     pub settings: RenderSettings,
-    /// Iterations averaged.
+    /// The first iteration (1 unless the render covered a later range of iterations).
+    pub first_iteration: u64,
+    /// Iterations averaged (the range `first_iteration ..= first_iteration + iterations − 1`).
     pub iterations: u64,
     /// Light paths traced in total.
     pub light_paths: u64,
@@ -176,6 +178,7 @@ impl Image {
             put(&format!("render.{key}"), text(value));
         }
         put("iterations", text(info.iterations.to_string()));
+        put("firstIteration", text(info.first_iteration.to_string()));
         put("lightPaths", text(info.light_paths.to_string()));
         put("radius", AttributeValue::F64(info.radius));
         put("initialRadius", AttributeValue::F64(info.initial_radius));

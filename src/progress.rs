@@ -20,6 +20,8 @@ pub struct Status<'a> {
     pub film: &'a Film,
     /// The render so far: iterations, light paths, current radii, elapsed time, …
     pub info: &'a RenderInfo,
+    pub(crate) method: &'a crate::integrator::Method,
+    pub(crate) fingerprint: [u8; 32],
 }
 
 impl Status<'_> {
@@ -36,6 +38,16 @@ impl Status<'_> {
     /// The image so far, with its metadata (for snapshots).
     pub fn snapshot(&self) -> Image {
         Image::from_film(self.film, self.info.clone())
+    }
+
+    /// The render so far as a partial render, which a later render can resume exactly.
+    pub fn partial(&self) -> crate::Partial {
+        crate::Partial {
+            info: self.info.clone(),
+            film: self.film.clone(),
+            fingerprint: self.fingerprint,
+            state: self.method.save_state(),
+        }
     }
 }
 

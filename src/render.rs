@@ -7,9 +7,10 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::integrator::Method;
 use crate::output::{Image, RenderInfo};
+use crate::partial::Partial;
 use crate::progress::{Progress, Status};
 use crate::scene::Scene;
-use crate::settings::RenderSettings;
+use crate::settings::{Progression, RenderSettings};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -37,6 +38,56 @@ pub fn render(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<Image> {
+    render_partial(scene, settings, Start::At(1), progress, stop).map(|p| p.image())
+}
+
+/// Where a [`render_partial`] starts.
+#[derive(Clone, Debug)]
+pub enum Start {
+    /// A fresh render whose first iteration has this index (1 for a whole render; a later one
+    /// for a range of a render split over processes or machines).
+    At(u64),
+    /// Continue a partial render from the iteration after its last.
+    Resume(Box<Partial>),
+}
+
+/// Renders a range of iterations into a [`Partial`]: from the start (an iteration index, or the
+/// iteration after a partial render's last) up to iteration `settings.iterations` (an index: the
+/// range `a..=b` is `Start::At(a)` with `iterations: Some(b)`) or until the time limit or `stop`,
+/// as [`render`] does. Parts of one render made this way on any number of processes merge
+/// exactly ([`Partial::merge`]), and a resumed render is bit-identical to an uninterrupted one.
+///
+/// ```
+/// use haze::{Partial, RenderSettings, Start, progress::Silent, render_partial};
+/// use haze::scene::{CameraDesc, LightDesc, Material, SceneBuilder, ShapeDesc};
+/// use std::sync::atomic::AtomicBool;
+///
+/// let mut b = SceneBuilder::new(CameraDesc::perspective([0.0, 1.0, 3.0], [0.0, 0.0, 0.0], 40.0).resolution(16, 16));
+/// b.material("floor", Material::diffuse(0.5))?;
+/// b.shape(ShapeDesc::rectangle(4.0, 4.0).material("floor").rotate([-90.0, 0.0, 0.0]))?;
+/// b.light(LightDesc::point([0.0, 2.0, 0.0], 50.0))?;
+/// let scene = b.build()?;
+/// let run = |start, last| {
+///     let settings = RenderSettings { iterations: Some(last), photons: 2_000, ..RenderSettings::default() };
+///     render_partial(&scene, &settings, start, &mut Silent, &AtomicBool::new(false))
+/// };
+/// let whole = run(Start::At(1), 6)?;
+/// // Two pieces, rendered anywhere, merged in any order: the same film, bit for bit.
+/// let (a, b) = (run(Start::At(1), 2)?, run(Start::At(3), 6)?);
+/// let merged = Partial::merge(vec![b, a]).unwrap();
+/// assert_eq!(merged.film, whole.film);
+/// // A render stopped after iteration 4 and resumed.
+/// let resumed = run(Start::Resume(Box::new(run(Start::At(1), 4)?)), 6)?;
+/// assert_eq!(resumed.film, whole.film);
+/// # Ok::<(), haze::Error>(())
+/// ```
+pub fn render_partial(
+    scene: &Scene,
+    settings: &RenderSettings,
+    start: Start,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<Partial> {
     settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
     check_radii(scene, settings)?;
     if let Some(total) = physical_memory() {
@@ -51,35 +102,73 @@ pub fn render(
             )));
         }
     }
-    let start = Instant::now();
+    let fingerprint = scene.fingerprint();
     let mut method = Method::new(scene, settings)?;
     let [width, height] = scene.camera.resolution;
-    let mut film = Film::new(width, height);
+    let (first, mut film, before) = match start {
+        Start::At(0) => return Err(Error::Settings("iterations are numbered from 1".into())),
+        Start::At(a) => {
+            if a > 1 && settings.progression == Progression::Original {
+                return Err(Error::Settings(
+                    "the original PPM (progression = \"original\") keeps per-pixel statistics \
+                     that depend on every earlier iteration: it cannot render a range that does \
+                     not start at 1 (it can resume)"
+                        .into(),
+                ));
+            }
+            (a, Film::new(width, height), None)
+        }
+        Start::Resume(p) => {
+            let p = *p;
+            let fresh = Partial {
+                info: p.info.clone(),
+                film: Film::new(width, height),
+                fingerprint,
+                state: None,
+            };
+            let fresh =
+                Partial { info: RenderInfo { settings: settings.clone(), ..fresh.info }, ..fresh };
+            fresh.check_compatible(&p).map_err(|m| {
+                Error::Settings(format!("cannot resume from this partial render: {m}"))
+            })?;
+            if let Some(state) = &p.state {
+                method.load_state(state).map_err(Error::Settings)?;
+            }
+            (p.info.first_iteration, p.film.clone(), Some(p.info))
+        }
+    };
+    let start = Instant::now();
     let mut image = vec![crate::math::Rgb::ZERO; (width * height) as usize];
     let nonfinite = AtomicU64::new(0);
     let diagonal = scene.diagonal() as f64;
     let truncated_before = scene.truncated_trackings();
-    let info = |method: &Method, iterations: u64, nonfinite: &AtomicU64| {
-        let (radius, volume_radius) = method.radii(iterations.max(1));
+    let info = |method: &Method, last: u64, nonfinite: &AtomicU64| {
+        let (radius, volume_radius) = method.radii(last.max(1));
+        let iterations = (last + 1).saturating_sub(first);
+        let (elapsed, nonfinite_before, truncated_before_run) = before
+            .as_ref()
+            .map_or((0.0, 0, 0), |b| (b.elapsed, b.nonfinite_samples, b.truncated_trackings));
         RenderInfo {
             settings: settings.clone(),
+            first_iteration: first,
             iterations,
             light_paths: iterations * method.light_paths_per_iteration(),
             initial_radius: settings.initial_radius(diagonal),
             radius,
             volume_initial_radius: settings.initial_volume_radius(diagonal),
             volume_radius,
-            elapsed: start.elapsed().as_secs_f64(),
+            elapsed: elapsed + start.elapsed().as_secs_f64(),
             scene: scene.source.clone(),
-            nonfinite_samples: nonfinite.load(Ordering::Relaxed),
-            truncated_trackings: scene.truncated_trackings() - truncated_before,
+            nonfinite_samples: nonfinite_before + nonfinite.load(Ordering::Relaxed),
+            truncated_trackings: truncated_before_run + scene.truncated_trackings()
+                - truncated_before,
         }
     };
     // The passes watch `halt`, raised by a watcher thread when `stop` is raised or the time
     // limit passes, so that neither waits for the end of an iteration.
     let halt = AtomicBool::new(false);
     let finished = AtomicBool::new(false);
-    let mut iteration = 0u64;
+    let mut iteration = first - 1 + film.iterations(); // the last finished iteration
     std::thread::scope(|scope| {
         scope.spawn(|| watch(settings, start, stop, &halt, &finished));
         // Ends the watcher however this closure ends (a panic included).
@@ -100,10 +189,13 @@ pub fn render(
                 times,
                 film: &film,
                 info: &info(&method, iteration, &nonfinite),
+                method: &method,
+                fingerprint,
             });
         }
     });
-    Ok(Image::from_film(&film, info(&method, iteration, &nonfinite)))
+    let info = info(&method, iteration, &nonfinite);
+    Ok(Partial { info, film, fingerprint, state: method.save_state() })
 }
 
 struct RaiseOnDrop<'a>(&'a AtomicBool);
@@ -187,9 +279,10 @@ fn physical_memory() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// True once the iteration count or the time limit is reached, or a stop was requested.
-fn done(settings: &RenderSettings, iterations: u64, start: Instant, stop: &AtomicBool) -> bool {
-    settings.iterations.is_some_and(|n| iterations >= n)
+/// True once the last iteration (`settings.iterations`, an index) or the time limit is reached,
+/// or a stop was requested.
+fn done(settings: &RenderSettings, iteration: u64, start: Instant, stop: &AtomicBool) -> bool {
+    settings.iterations.is_some_and(|n| iteration >= n)
         || settings.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t)
         || stop.load(Ordering::Relaxed)
 }

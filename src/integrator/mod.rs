@@ -74,6 +74,25 @@ impl Method {
         }
     }
 
+    /// The state the method carries from one iteration to the next, for partial renders (only
+    /// the original PPM has one: its per-pixel statistics).
+    pub(crate) fn save_state(&self) -> Option<Vec<u8>> {
+        match self {
+            Method::Original(m) => Some(m.save_state()),
+            _ => None,
+        }
+    }
+
+    /// Restores a state saved by [`Self::save_state`].
+    pub(crate) fn load_state(&mut self, state: &[u8]) -> Result<(), String> {
+        match self {
+            Method::Original(m) => m.load_state(state),
+            _ => Err("the partial render holds per-pixel statistics of the original PPM, but \
+                 these settings use another method"
+                .into()),
+        }
+    }
+
     /// Adds a finished iteration's image to the film.
     pub(crate) fn accumulate(&self, film: &mut Film, image: &[Rgb]) {
         match self {

@@ -105,6 +105,48 @@ impl OriginalPpm {
     }
 }
 
+impl OriginalPpm {
+    /// The per-pixel statistics as bytes: per pixel R², N, τ (3) and the direct sum (3), as
+    /// little-endian f64, then the RMS radius reported last.
+    pub(crate) fn save_state(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.stats.pixels.len() * 64 + 8);
+        for p in &self.stats.pixels {
+            for v in [p.radius2, p.photons, p.flux.x, p.flux.y, p.flux.z]
+                .into_iter()
+                .chain([p.direct.x, p.direct.y, p.direct.z])
+            {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        out.extend_from_slice(&self.radius.to_le_bytes());
+        out
+    }
+
+    /// Restores statistics saved by [`Self::save_state`] for an image of the same size.
+    pub(crate) fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let n = self.stats.pixels.len();
+        if bytes.len() != n * 64 + 8 {
+            return Err(format!(
+                "the partial render's original-PPM statistics hold {} bytes, not {} for {n} pixels",
+                bytes.len(),
+                n * 64 + 8
+            ));
+        }
+        let f =
+            |k: usize| f64::from_le_bytes(bytes[8 * k..8 * k + 8].try_into().unwrap_or_default());
+        for (i, p) in self.stats.pixels.iter_mut().enumerate() {
+            let b = 8 * i;
+            p.radius2 = f(b);
+            p.photons = f(b + 1);
+            p.flux = DVec3::new(f(b + 2), f(b + 3), f(b + 4));
+            p.direct = DVec3::new(f(b + 5), f(b + 6), f(b + 7));
+        }
+        self.radius = f(8 * n);
+        self.next.pixels.clone_from(&self.stats.pixels);
+        Ok(())
+    }
+}
+
 /// One pixel's statistics.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PixelStats {

@@ -166,6 +166,14 @@ fn step_areas(steps: &[(f32, f32)], t0: f32, t1: f32) -> Vec<f32> {
 }
 
 impl Medium {
+    /// Feeds what defines the medium to `feed` (see [`crate::scene::Scene::fingerprint`]).
+    pub(crate) fn fingerprint(&self, feed: &mut dyn FnMut(&[u8])) {
+        match self {
+            Medium::Homogeneous(h) => feed(format!("{h:?}").as_bytes()),
+            Medium::Vdb(v) => v.fingerprint(feed),
+        }
+    }
+
     /// Trackings cut at [`vdb::MAX_TRACKING_STEPS`] so far (always 0 for homogeneous media).
     pub fn truncated_trackings(&self) -> u64 {
         match self {

@@ -142,6 +142,20 @@ impl VdbMedium {
         self.sigma_s * self.density(p)
     }
 
+    /// Feeds what defines the medium (grid, placement, coefficients; not its counters) to
+    /// `feed`, for a scene's fingerprint.
+    pub(crate) fn fingerprint(&self, feed: &mut dyn FnMut(&[u8])) {
+        let g = &self.grid;
+        feed(
+            format!("{:?} {:?} {:?} {:?}", g.origin, g.dims, g.translation, g.voxel_size)
+                .as_bytes(),
+        );
+        g.data.iter().for_each(|d| feed(&d.to_le_bytes()));
+        let t =
+            format!("{:?} {:?} {:?} {:?}", self.to_index, self.sigma_s, self.sigma_t, self.phase);
+        feed(t.as_bytes());
+    }
+
     /// Trackings so far cut at [`MAX_TRACKING_STEPS`] (zero in any sensible medium).
     pub fn truncated_trackings(&self) -> u64 {
         self.truncated.0.load(Ordering::Relaxed)

@@ -330,6 +330,10 @@ pub(crate) fn plain(message: &str) -> String {
         ("integer `", "`"),
         ("floating point `", "`"),
         ("sequence, expected", "an array, expected"),
+        (
+            "wanted string or table",
+            "expected one of its names in quotes (docs/scene-format.md lists them)",
+        ),
     ] {
         m = m.replace(rust, words);
     }

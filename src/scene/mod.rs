@@ -158,6 +158,34 @@ impl Scene {
         self.accel.intersect(o, d, t_max)
     }
 
+    /// A SHA-256 digest of everything that defines the scene's image but the render settings:
+    /// camera (resolution included), materials, shapes and their geometry, lights, and media
+    /// (grid voxels included) — the scene as built, whatever files it came from, so an edit to
+    /// the scene file or to any mesh or volume it loads changes it. Partial renders carry it, and
+    /// only renders of the same scene are merged or resumed.
+    pub fn fingerprint(&self) -> [u8; 32] {
+        use sha2::Digest;
+        let mut h = sha2::Sha256::new();
+        let mut feed = |b: &[u8]| h.update(b);
+        feed(b"haze scene fingerprint 1\n");
+        let text = format!(
+            "{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n",
+            self.camera,
+            self.materials,
+            self.shapes,
+            self.lights,
+            self.light_media,
+            self.medium_names,
+            self.camera_medium
+        );
+        feed(text.as_bytes());
+        for m in &self.media {
+            m.fingerprint(&mut feed);
+        }
+        self.accel.fingerprint(&mut feed);
+        h.finalize().into()
+    }
+
     /// Trackings through the scene's media cut at their step cap so far (see
     /// `RenderInfo::truncated_trackings`).
     pub(crate) fn truncated_trackings(&self) -> u64 {

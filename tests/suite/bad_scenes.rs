@@ -331,6 +331,14 @@ fn messages_use_the_users_words() {
         &["camera.resolution", "expected a whole number"],
     );
     assert!(!msg.contains("u32"), "{msg}");
+    expect_error(
+        &format!("{CAMERA}[render]\nkernel = 3\n{BODY}"),
+        &["render.kernel", "expected one of its names in quotes"],
+    );
+    expect_error(
+        &format!("{CAMERA}[render]\nkernel = \"gauss\"\n{BODY}"),
+        &["render.kernel", "`gauss`", "`epanechnikov`"],
+    );
     let long = "x".repeat(100_000);
     let msg = expect_error(
         &format!("{}{BODY}", CAMERA.replace("fov = 40", &format!("fov = \"{long}\""))),

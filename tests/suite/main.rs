@@ -7,6 +7,7 @@ mod cli;
 mod common;
 mod converge;
 mod determinism;
+mod distributed;
 mod fuzz_corpus;
 mod media;
 mod output;

@@ -67,3 +67,48 @@ fn stop_flag_before_start_gives_an_empty_render() {
     let image = haze::render(&scene, &scene.settings, &mut Silent, &AtomicBool::new(true)).unwrap();
     assert_eq!(image.info.iterations, 0);
 }
+
+/// A scene whose photons almost all escape (a 1 m² card 10 m from a point light), so that an
+/// iteration of [`haze::settings::MAX_PHOTONS`] light paths stores almost nothing yet takes
+/// seconds: at least 20 ns a path on 2 cores makes 0.5 s.
+fn escaping_photons() -> (Scene, haze::RenderSettings) {
+    use haze::scene::{CameraDesc, LightDesc, Material, SceneBuilder, ShapeDesc};
+    let camera = CameraDesc::perspective([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 40.0).resolution(16, 16);
+    let mut b = SceneBuilder::new(camera);
+    b.material("card", Material::diffuse(0.5)).unwrap();
+    b.shape(ShapeDesc::rectangle(1.0, 1.0).material("card")).unwrap();
+    b.light(LightDesc::point([0.0, 0.0, 10.0], 100.0)).unwrap();
+    let scene = b.build().unwrap();
+    let settings = haze::RenderSettings {
+        photons: haze::settings::MAX_PHOTONS,
+        ..haze::RenderSettings::default()
+    };
+    (scene, settings)
+}
+
+/// A time limit of 0.05 s must end such an iteration inside it (the iteration is discarded)
+/// rather than wait for it: the render returns with no iteration. (Before stop requests and time
+/// limits were honoured inside iterations, it returned one.)
+#[test]
+fn a_time_limit_ends_a_long_iteration_inside_it() {
+    let (scene, settings) = escaping_photons();
+    let settings = haze::RenderSettings { iterations: None, time_limit: Some(0.05), ..settings };
+    let image = haze::render(&scene, &settings, &mut Silent, &AtomicBool::new(false)).unwrap();
+    assert_eq!(image.info.iterations, 0);
+}
+
+/// The same for a stop raised from another thread during the first iteration.
+#[test]
+fn a_stop_request_ends_a_long_iteration_inside_it() {
+    let (scene, settings) = escaping_photons();
+    let settings = haze::RenderSettings { iterations: Some(1), ..settings };
+    let stop = AtomicBool::new(false);
+    let image = std::thread::scope(|s| {
+        s.spawn(|| {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        });
+        haze::render(&scene, &settings, &mut Silent, &stop).unwrap()
+    });
+    assert_eq!(image.info.iterations, 0);
+}

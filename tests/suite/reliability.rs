@@ -70,6 +70,29 @@ fn stopped_by(signal: &str, code: i32, name: &str) {
     assert!(err.contains(&format!("interrupted by {name}")), "{err}");
     assert_eq!(read_exr(&out), (32, 32));
     assert!(dir.join("cb.png").exists());
+    resumes_exactly(&dir, &dir.join("cb.hpr"));
+}
+
+/// The partial render a stopped render left, resumed to a few more iterations, gives the bits of
+/// an uninterrupted render of as many.
+fn resumes_exactly(dir: &Path, part: &Path) {
+    let p = haze::Partial::read(part).unwrap();
+    let n = (p.last_iteration() + 2).to_string();
+    let render = |extra: &[&str], out: &str| {
+        let o = haze()
+            .args(["render", scene_path("cornell-box.toml").to_str().unwrap()])
+            .args(["--resolution", "32x32", "-p", "2000", "-j", "2", "-q", "-n", &n, "-o"])
+            .arg(dir.join(out))
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    render(&["--resume", part.to_str().unwrap()], "resumed.exr");
+    render(&[], "whole.exr");
+    let d = haze().arg("diff").arg(dir.join("resumed.exr")).arg(dir.join("whole.exr")).output();
+    let d = d.unwrap();
+    assert!(d.status.success(), "{}", String::from_utf8_lossy(&d.stdout));
 }
 
 #[test]

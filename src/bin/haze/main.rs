@@ -2,7 +2,9 @@
 //! against analytic media, chart error against time). The only part of haze that prints or exits.
 
 mod bench;
+mod diff;
 mod lab;
+mod merge;
 mod render;
 mod signals;
 
@@ -22,8 +24,15 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene file to OpenEXR (plus a PNG preview beside it).
+    /// Render a scene file to OpenEXR (plus a PNG preview beside it); `--iterations A..B`
+    /// renders a range of iterations into a partial render, `--resume` continues one.
     Render(render::RenderArgs),
+    /// Merge partial renders of one scene (iteration ranges, from any processes or machines)
+    /// into the image of the union of their ranges: bit-identical to one render of them all.
+    Merge(merge::MergeArgs),
+    /// Compare two OpenEXR images pixel by pixel: exit 0 if they are identical bit for bit, 1
+    /// with the size of the differences if not.
+    Diff(diff::DiffArgs),
     /// Measure the time of each step of an iteration on a scene.
     Bench(bench::BenchArgs),
     /// Chart error against time: render the scene while measuring its error against a reference
@@ -117,10 +126,43 @@ fn check_output_dir(what: &str, path: &Path) -> Result<()> {
     haze::output::check_writable(path).with_context(|| what.to_string())
 }
 
+/// The command line with `--iterations A..B` (or `-n A..B`, `--iterations=A..B`) rewritten as
+/// `--iterations B --first-iteration A`: a range of iterations is the last index plus where the
+/// range starts.
+fn expand_ranges(args: impl Iterator<Item = std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let mut out = Vec::new();
+    let mut after_flag = false;
+    for arg in args {
+        let text = arg.to_str().map(str::to_string);
+        let (flag, value) = match text.as_deref() {
+            Some(t) if after_flag => (None, Some(t.to_string())),
+            Some(t) if t.starts_with("--iterations=") => {
+                (Some("--iterations"), Some(t["--iterations=".len()..].to_string()))
+            }
+            _ => (None, None),
+        };
+        after_flag = matches!(text.as_deref(), Some("-n" | "--iterations"));
+        match value.as_deref().and_then(|v| v.split_once("..")) {
+            Some((a, b)) => {
+                if let Some(f) = flag {
+                    out.push(f.into());
+                }
+                out.push(b.into());
+                out.push("--first-iteration".into());
+                out.push(a.into());
+            }
+            None => out.push(arg),
+        }
+    }
+    out
+}
+
 fn run() -> Result<ExitCode> {
-    let cli = Cli::parse();
+    let cli = Cli::parse_from(expand_ranges(std::env::args_os()));
     match cli.command {
         Command::Render(a) => render::run(a),
+        Command::Merge(a) => merge::run(a),
+        Command::Diff(a) => diff::run(a),
         Command::Bench(a) => bench::run(a).map(|()| ExitCode::SUCCESS),
         Command::Validate(a) => lab::validate(a),
         Command::Converge(a) => lab::converge(a),

@@ -4,9 +4,9 @@ use crate::signals::Interrupt;
 use crate::{Overrides, check_output_dir, default_output, thread_pool};
 use anyhow::{Result, bail};
 use clap::Args;
-use haze::RenderSettings;
 use haze::progress::Status;
 use haze::settings::Integrator;
+use haze::{Partial, RenderSettings, Start};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -17,10 +17,19 @@ use std::time::Instant;
 pub(crate) struct RenderArgs {
     /// Scene file (TOML; see docs/scene-format.md).
     scene: PathBuf,
-    /// Output file: .exr writes OpenEXR with a PNG preview beside it, .png the preview alone
-    /// [default: SCENE-NAME.exr].
+    /// Output file: .exr writes OpenEXR with a PNG preview beside it, .png the preview alone,
+    /// .hpr a partial render only (for `haze merge` or `--resume`) [default: SCENE-NAME.exr].
+    /// Ranges, resumed, interrupted and snapshotted renders also write a partial render beside
+    /// an image output (same name, .hpr).
     #[arg(short = 'o', long, value_name = "FILE")]
     output: Option<PathBuf>,
+    /// Continue the partial render PART (same scene and settings) from the iteration after its
+    /// last, up to --iterations (an index) or for --time; bit-identical to an uninterrupted render.
+    #[arg(long, value_name = "PART")]
+    resume: Option<PathBuf>,
+    /// The first iteration of a range (set by `--iterations A..B`).
+    #[arg(long, hide = true, value_name = "A")]
+    first_iteration: Option<u64>,
     #[command(flatten)]
     overrides: Overrides,
     /// Write the image so far every this often (e.g. 30s) to the output files.
@@ -47,16 +56,46 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         bail!("--exposure must be a positive number, got {}", args.exposure);
     }
     let output = default_output(&args.scene, args.output.clone(), "exr");
+    let partial_only = output.extension().is_some_and(|e| e == "hpr");
     match output.extension().and_then(|e| e.to_str()) {
         Some("exr") => {}
-        Some("png") if !args.reference => {}
+        Some("png" | "hpr") if !args.reference => {}
         _ if args.reference => bail!("--output {}: a reference must end in .exr", output.display()),
         _ => bail!(
-            "--output {}: the file name must end in .exr (OpenEXR plus a PNG preview) or .png",
+            "--output {}: the file name must end in .exr (OpenEXR plus a PNG preview), .png or \
+             .hpr (a partial render)",
             output.display()
         ),
     }
     check_output_dir("--output", &output)?;
+    let partial_path = output.with_extension("hpr");
+    let start = match (&args.resume, args.first_iteration) {
+        (Some(_), Some(_)) => bail!("--resume continues a partial render: give it no range"),
+        (Some(p), None) => {
+            let part = Partial::read(p)?;
+            if settings.iterations.is_some_and(|n| n <= part.last_iteration()) {
+                bail!(
+                    "--resume {}: it already holds iterations {}..{}; ask for more with \
+                     --iterations N (the last iteration's index) or --time",
+                    p.display(),
+                    part.info.first_iteration,
+                    part.last_iteration()
+                );
+            }
+            Start::Resume(Box::new(part))
+        }
+        (None, Some(a)) => {
+            if settings.iterations.is_some_and(|b| b < a) || a == 0 {
+                bail!(
+                    "--iterations {a}..{}: not a range of iterations",
+                    settings.iterations.unwrap_or(0)
+                );
+            }
+            Start::At(a)
+        }
+        (None, None) => Start::At(1),
+    };
+    let ranged = !matches!(start, Start::At(1)) || partial_only;
     let preview = haze::output::preview_path(&output);
     if output.extension().is_some_and(|e| e == "exr")
         && preview.exists()
@@ -80,15 +119,21 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         if let Some(every) = args.snapshot_every {
             if last_snapshot.elapsed().as_secs_f64() >= every {
                 last_snapshot = Instant::now();
-                let image = s.snapshot();
-                if let Err(e) = interrupt.writing(|| image.write(&output, args.exposure)) {
+                let (image, part) = (s.snapshot(), s.partial());
+                let written = interrupt.writing(|| {
+                    part.write(&partial_path)?;
+                    if partial_only { Ok(vec![]) } else { image.write(&output, args.exposure) }
+                });
+                if let Err(e) = written {
                     snapshot_error.get_or_insert(e);
                 }
             }
         }
     };
-    let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, stop))?;
+    let part =
+        pool.install(|| haze::render_partial(&scene, &settings, start, &mut on_iteration, stop))?;
     bar.finish_and_clear();
+    let image = part.image();
     if let Some(e) = snapshot_error {
         eprintln!("warning: a snapshot could not be written: {e}");
     }
@@ -103,12 +148,21 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
             settings.time_limit.unwrap_or(0.0)
         );
     }
-    let written = interrupt.writing(|| {
-        if args.reference {
-            image.write_reference(&output, args.exposure)
-        } else {
-            image.write(&output, args.exposure)
+    let keep_partial = ranged || args.snapshot_every.is_some() || interrupt.name().is_some();
+    let written = interrupt.writing(|| -> haze::Result<Vec<PathBuf>> {
+        let mut written = Vec::new();
+        if keep_partial {
+            part.write(&partial_path)?;
+            written.push(partial_path.clone());
         }
+        if !partial_only {
+            written.extend(if args.reference {
+                image.write_reference(&output, args.exposure)?
+            } else {
+                image.write(&output, args.exposure)?
+            });
+        }
+        Ok(written)
     })?;
     let i = &image.info;
     let interrupted =
@@ -120,12 +174,24 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),
     };
     let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    let range = if i.first_iteration > 1 || args.resume.is_some() {
+        format!(" ({}..{})", i.first_iteration, i.first_iteration + i.iterations - 1)
+    } else {
+        String::new()
+    };
     eprintln!(
-        "{} iterations{interrupted}, {work}, {:.1} s: wrote {}",
+        "{} iterations{range}{interrupted}, {work}, {:.1} s: wrote {}",
         i.iterations,
         i.elapsed,
         files.join(" and ")
     );
+    if interrupt.name().is_some() {
+        eprintln!(
+            "resume with: haze render {} --resume {} (and --iterations N or --time T)",
+            args.scene.display(),
+            partial_path.display()
+        );
+    }
     if i.nonfinite_samples > 0 {
         eprintln!("warning: {} non-finite samples were replaced by black", i.nonfinite_samples);
     }
@@ -158,7 +224,7 @@ fn progress_bar(settings: &RenderSettings) -> ProgressBar {
 fn update_bar(bar: &ProgressBar, s: &Status) {
     let i = s.info;
     match s.target_iterations {
-        Some(_) => bar.set_position(i.iterations),
+        Some(_) => bar.set_position(i.first_iteration + i.iterations - 1),
         None => bar.set_position((i.elapsed * 1000.0) as u64),
     }
     let rate = i.iterations as f64 / i.elapsed.max(1e-9);

@@ -1,0 +1,329 @@
+//! Partial renders: what an exact merge or a resume needs — the film's exact sums over a range of
+//! iterations, the range, the settings and the scene's fingerprint — and their files.
+//!
+//! In probabilistic PPM every iteration depends only on (scene, settings, seed, iteration index),
+//! and the film's sums are exact integers ([`crate::film`]), so iterations `a..=b` rendered
+//! anywhere, in any number of pieces, merge into exactly the film of one render of `a..=b`:
+//! [`Partial::merge`] of parts covering `1..=N` gives a bit-identical image to one process
+//! rendering `N` iterations, and [`crate::render_partial`] resumed from a partial continues
+//! exactly where it stopped. The file format is in `docs/distributed.md`.
+
+use crate::error::{Error, Result};
+use crate::film::Film;
+use crate::output::{Image, RenderInfo, write_atomically};
+use crate::settings::{Progression, RenderOptions, RenderSettings};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+const MAGIC: &[u8; 8] = b"HAZEPART";
+const VERSION: u32 = 1;
+/// Largest header accepted when reading (bytes).
+const MAX_HEADER: u64 = 1 << 20;
+
+/// A render of a range of iterations, with what merging and resuming need.
+#[derive(Clone, Debug)]
+pub struct Partial {
+    /// How it was made; `info.iterations` is the number of iterations in the range, which starts
+    /// at `info.first_iteration`.
+    pub info: RenderInfo,
+    /// The exact sums of the range's iteration images.
+    pub film: Film,
+    /// The scene's fingerprint ([`crate::Scene::fingerprint`]).
+    pub fingerprint: [u8; 32],
+    /// State a method carries between iterations (the original PPM's per-pixel statistics).
+    pub(crate) state: Option<Vec<u8>>,
+}
+
+fn part_err(path: &Path, message: impl Into<String>) -> Error {
+    Error::Output { path: path.to_path_buf(), message: message.into() }
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Settings that must agree between the parts of one render: all but the stop conditions.
+fn merge_key(s: &RenderSettings) -> Vec<(String, String)> {
+    s.entries().into_iter().filter(|(k, _)| k != "iterations" && k != "time_limit").collect()
+}
+
+impl Partial {
+    /// The last iteration of the range (`first_iteration − 1` if it is empty).
+    pub fn last_iteration(&self) -> u64 {
+        self.info.first_iteration + self.info.iterations - 1
+    }
+
+    /// The image of the range: the mean of its iterations.
+    pub fn image(&self) -> Image {
+        Image::from_film(&self.film, self.info.clone())
+    }
+
+    /// Checks that `other` is a piece of the same render: same scene fingerprint, image size and
+    /// settings (all but `iterations` and `time_limit`). The error names the first difference.
+    pub fn check_compatible(&self, other: &Partial) -> std::result::Result<(), String> {
+        if self.fingerprint != other.fingerprint {
+            return Err("renders of different scenes (or of a scene, mesh or volume file that \
+                 changed in between): their fingerprints differ"
+                .into());
+        }
+        let (a, b) = (&self.film, &other.film);
+        if (a.width(), a.height()) != (b.width(), b.height()) {
+            return Err(format!(
+                "image sizes differ: {}x{} and {}x{}",
+                a.width(),
+                a.height(),
+                b.width(),
+                b.height()
+            ));
+        }
+        let (ka, kb) = (merge_key(&self.info.settings), merge_key(&other.info.settings));
+        for ((k, va), (_, vb)) in ka.iter().zip(&kb) {
+            if va != vb {
+                return Err(format!("settings differ: render.{k} = {va} and {vb}"));
+            }
+        }
+        if ka.len() != kb.len() {
+            return Err("settings differ".into());
+        }
+        Ok(())
+    }
+
+    /// Merges the parts of one render into the partial of the union of their ranges. The parts
+    /// may come in any order; they must be compatible ([`Self::check_compatible`]), their ranges
+    /// disjoint and without gaps (the error names every gap or overlap). The result is exact: its
+    /// film equals that of one render of the whole range.
+    pub fn merge(mut parts: Vec<Partial>) -> std::result::Result<Partial, String> {
+        if parts.is_empty() {
+            return Err("nothing to merge".into());
+        }
+        if parts[0].info.settings.progression == Progression::Original {
+            return Err("the original PPM keeps per-pixel statistics that cannot be merged \
+                 (progression = \"original\"); its renders can only be resumed"
+                .into());
+        }
+        for p in &parts[1..] {
+            parts[0].check_compatible(p)?;
+        }
+        parts.retain(|p| p.info.iterations > 0);
+        if parts.is_empty() {
+            return Err("every part is empty".into());
+        }
+        parts.sort_by_key(|p| p.info.first_iteration);
+        let mut problems = Vec::new();
+        for w in parts.windows(2) {
+            let (end, next) = (w[0].last_iteration(), w[1].info.first_iteration);
+            if next <= end {
+                problems.push(format!(
+                    "iterations {}..{} and {}..{} overlap",
+                    w[0].info.first_iteration,
+                    end,
+                    next,
+                    w[1].last_iteration()
+                ));
+            } else if next > end + 1 {
+                problems.push(format!("iterations {}..{} are missing", end + 1, next - 1));
+            }
+        }
+        if !problems.is_empty() {
+            return Err(problems.join("; "));
+        }
+        let mut it = parts.into_iter();
+        let mut out = it.next().expect("non-empty");
+        for p in it {
+            out.film.merge(&p.film);
+            let (i, j) = (&mut out.info, &p.info);
+            i.iterations += j.iterations;
+            i.light_paths += j.light_paths;
+            i.elapsed += j.elapsed;
+            i.nonfinite_samples += j.nonfinite_samples;
+            i.truncated_trackings += j.truncated_trackings;
+            // The radius of the last iteration: the later part's.
+            i.radius = j.radius;
+            i.volume_radius = j.volume_radius;
+        }
+        Ok(out)
+    }
+
+    /// Writes the partial-render file (atomically).
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let header = self.header();
+        let (sum, sum_sq) = self.film.sums();
+        let state = self.state.as_deref().unwrap_or(&[]);
+        write_atomically(path, |w| {
+            let mut put = |b: &[u8]| w.write_all(b).map_err(|e| e.to_string());
+            put(MAGIC)?;
+            put(&VERSION.to_le_bytes())?;
+            put(&(header.len() as u64).to_le_bytes())?;
+            put(header.as_bytes())?;
+            put(&(state.len() as u64).to_le_bytes())?;
+            put(state)?;
+            for px in sum.iter().chain(sum_sq) {
+                for c in px {
+                    put(&c.to_le_bytes())?;
+                }
+            }
+            put(&self.checksum(&header, state))
+        })
+    }
+
+    /// A digest of the header, state and sums, stored last: a truncated or altered file is
+    /// refused.
+    fn checksum(&self, header: &str, state: &[u8]) -> [u8; 32] {
+        use sha2::Digest;
+        let mut h = sha2::Sha256::new();
+        h.update(header.as_bytes());
+        h.update(state);
+        let (sum, sum_sq) = self.film.sums();
+        for px in sum.iter().chain(sum_sq) {
+            for c in px {
+                h.update(c.to_le_bytes());
+            }
+        }
+        h.finalize().into()
+    }
+
+    fn header(&self) -> String {
+        let i = &self.info;
+        let mut t = toml::Table::new();
+        let mut put = |k: &str, v: toml::Value| {
+            t.insert(k.into(), v);
+        };
+        put("format", "haze partial render".into());
+        put("fingerprint", hex(&self.fingerprint).into());
+        put("width", (self.film.width() as i64).into());
+        put("height", (self.film.height() as i64).into());
+        put("first_iteration", (i.first_iteration as i64).into());
+        put("iterations", (i.iterations as i64).into());
+        put("light_paths", (i.light_paths as i64).into());
+        put("initial_radius", i.initial_radius.into());
+        put("radius", i.radius.into());
+        put("volume_initial_radius", i.volume_initial_radius.into());
+        put("volume_radius", i.volume_radius.into());
+        put("elapsed_seconds", i.elapsed.into());
+        put("nonfinite_samples", (i.nonfinite_samples as i64).into());
+        put("truncated_trackings", (i.truncated_trackings as i64).into());
+        put("saturated_values", (self.film.saturated() as i64).into());
+        if let Some(scene) = i.scene.as_ref().and_then(|p| p.to_str()) {
+            put("scene", scene.into());
+        }
+        let settings = toml::Table::try_from(&i.settings).unwrap_or_default();
+        put("settings", toml::Value::Table(settings));
+        toml::to_string(&t).unwrap_or_default()
+    }
+
+    /// Reads a partial-render file, checking its structure and checksum.
+    pub fn read(path: &Path) -> Result<Partial> {
+        let err = |m: String| part_err(path, m);
+        let bytes = crate::scene::read_bounded(path, 1 << 40, "a partial render")?;
+        let mut at = 0usize;
+        let mut take = |n: u64, what: &str| -> Result<&[u8]> {
+            let end = (at as u64).checked_add(n).filter(|&e| e <= bytes.len() as u64);
+            let end =
+                end.ok_or_else(|| err(format!("truncated partial render (in its {what})")))?;
+            let s = &bytes[at..end as usize];
+            at = end as usize;
+            Ok(s)
+        };
+        if take(8, "magic")? != MAGIC {
+            return Err(err("not a haze partial render (bad magic number)".into()));
+        }
+        let u32_of = |b: &[u8]| u32::from_le_bytes(b.try_into().unwrap_or_default());
+        let u64_of = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap_or_default());
+        let version = u32_of(take(4, "version")?);
+        if version != VERSION {
+            return Err(err(format!("partial render format {version}; this haze reads {VERSION}")));
+        }
+        let n = u64_of(take(8, "header")?);
+        if n > MAX_HEADER {
+            return Err(err(format!("header of {n} bytes (corrupt file)")));
+        }
+        let header = std::str::from_utf8(take(n, "header")?)
+            .map_err(|_| err("header is not UTF-8 (corrupt file)".into()))?
+            .to_string();
+        let n = u64_of(take(8, "state")?);
+        let state = take(n, "state")?.to_vec();
+        let t: toml::Table = header.parse().map_err(|e| err(format!("header: {e}")))?;
+        let int = |k: &str| -> Result<u64> {
+            t.get(k)
+                .and_then(|v| v.as_integer())
+                .filter(|&v| v >= 0)
+                .map(|v| v as u64)
+                .ok_or_else(|| err(format!("header: `{k}` missing or invalid")))
+        };
+        let float = |k: &str| -> Result<f64> {
+            t.get(k).and_then(|v| v.as_float()).ok_or_else(|| err(format!("header: `{k}` missing")))
+        };
+        let (width, height) = (int("width")?, int("height")?);
+        let pixels = width.checked_mul(height).filter(|&p| p > 0 && p <= crate::scene::MAX_PIXELS);
+        let pixels =
+            pixels.ok_or_else(|| err(format!("header: impossible size {width}x{height}")))?;
+        let mut read_sums = |what: &str| -> Result<Vec<[i128; 3]>> {
+            let raw = take(pixels * 48, what)?;
+            Ok(raw
+                .chunks_exact(48)
+                .map(|px| {
+                    let c = |k: usize| {
+                        i128::from_le_bytes(px[16 * k..16 * k + 16].try_into().unwrap_or_default())
+                    };
+                    [c(0), c(1), c(2)]
+                })
+                .collect())
+        };
+        let sum = read_sums("sums")?;
+        let sum_sq = read_sums("sums of squares")?;
+        let stored: [u8; 32] = take(32, "checksum")?.try_into().unwrap_or_default();
+        if at != bytes.len() {
+            return Err(err(format!("{} bytes after the end (corrupt file)", bytes.len() - at)));
+        }
+        let settings_table = t
+            .get("settings")
+            .and_then(|v| v.as_table())
+            .cloned()
+            .ok_or_else(|| err("header: `settings` missing".into()))?;
+        let options: RenderOptions = toml::Value::Table(settings_table)
+            .try_into()
+            .map_err(|e: toml::de::Error| err(format!("header: settings: {}", e.message())))?;
+        let settings = RenderSettings { iterations: None, time_limit: None, ..Default::default() }
+            .with(&options);
+        let fp = t.get("fingerprint").and_then(|v| v.as_str()).unwrap_or_default();
+        let mut fingerprint = [0u8; 32];
+        if fp.len() != 64 || !fp.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(err("header: `fingerprint` missing or invalid".into()));
+        }
+        for (k, b) in fingerprint.iter_mut().enumerate() {
+            *b = u8::from_str_radix(&fp[2 * k..2 * k + 2], 16).unwrap_or_default();
+        }
+        let first_iteration = int("first_iteration")?;
+        if first_iteration == 0 {
+            return Err(err("header: `first_iteration` must be at least 1".into()));
+        }
+        let iterations = int("iterations")?;
+        let info = RenderInfo {
+            settings,
+            first_iteration,
+            iterations,
+            light_paths: int("light_paths")?,
+            initial_radius: float("initial_radius")?,
+            radius: float("radius")?,
+            volume_initial_radius: float("volume_initial_radius")?,
+            volume_radius: float("volume_radius")?,
+            elapsed: float("elapsed_seconds")?,
+            scene: t.get("scene").and_then(|v| v.as_str()).map(PathBuf::from),
+            nonfinite_samples: int("nonfinite_samples")?,
+            truncated_trackings: int("truncated_trackings")?,
+        };
+        let film = Film::from_sums(
+            width as u32,
+            height as u32,
+            sum,
+            sum_sq,
+            iterations,
+            int("saturated_values")?,
+        );
+        let part = Partial { info, film, fingerprint, state: (!state.is_empty()).then_some(state) };
+        if part.checksum(&header, part.state.as_deref().unwrap_or(&[])) != stored {
+            return Err(err("checksum mismatch: the file is corrupt".into()));
+        }
+        Ok(part)
+    }
+}
