@@ -41,7 +41,7 @@ pub fn write_atomically(
         return Err(out_err(path, "is a directory"));
     }
     let tmp = temporary(path);
-    let result = (|| {
+    let result = (|| -> std::result::Result<(), String> {
         let file =
             OpenOptions::new().write(true).create_new(true).open(&tmp).map_err(|e| {
                 format!("cannot create a file in {}: {e}", directory(path).display())
@@ -50,7 +50,13 @@ pub fn write_atomically(
         write(&mut w)?;
         let file = w.into_inner().map_err(|e| e.error().to_string())?;
         file.sync_all().map_err(|e| e.to_string())?;
-        std::fs::rename(&tmp, path).map_err(|e| e.to_string())
+        std::fs::rename(&tmp, path).map_err(|e| e.to_string())?;
+        // Make the rename itself durable (a power cut must not undo it); best effort where a
+        // directory cannot be opened for syncing.
+        if let Ok(dir) = File::open(directory(path)) {
+            let _ = dir.sync_all();
+        }
+        Ok(())
     })();
     result.map_err(|message| {
         let _ = std::fs::remove_file(&tmp);

@@ -100,7 +100,13 @@ impl Film {
     /// of the same render). Exact: the result does not depend on the order of merging.
     pub fn merge(&mut self, other: &Film) {
         assert_eq!((self.width, self.height), (other.width, other.height), "film sizes differ");
-        let add = |a: &mut i128, b: i128| *a = a.saturating_add(b);
+        let mut saturated = 0;
+        let mut add = |a: &mut i128, b: i128| {
+            *a = a.checked_add(b).unwrap_or_else(|| {
+                saturated += 1;
+                a.saturating_add(b)
+            })
+        };
         for (s, o) in self.sum.iter_mut().zip(&other.sum) {
             (0..3).for_each(|c| add(&mut s[c], o[c]));
         }
@@ -108,7 +114,7 @@ impl Film {
             (0..3).for_each(|c| add(&mut s[c], o[c]));
         }
         self.iterations += other.iterations;
-        self.saturated += other.saturated;
+        self.saturated += other.saturated + saturated;
     }
 
     /// The mean of the iterations so far (black before the first).

@@ -110,18 +110,24 @@ impl Partial {
         }
         parts.sort_by_key(|p| p.info.first_iteration);
         let mut problems = Vec::new();
-        for w in parts.windows(2) {
-            let (end, next) = (w[0].last_iteration(), w[1].info.first_iteration);
+        // The furthest iteration covered so far, and the part that reached it.
+        let (mut end, mut by) = (parts[0].last_iteration(), 0);
+        for (k, p) in parts.iter().enumerate().skip(1) {
+            let next = p.info.first_iteration;
             if next <= end {
+                let q = &parts[by];
                 problems.push(format!(
                     "iterations {}..{} and {}..{} overlap",
-                    w[0].info.first_iteration,
-                    end,
+                    q.info.first_iteration,
+                    q.last_iteration(),
                     next,
-                    w[1].last_iteration()
+                    p.last_iteration()
                 ));
             } else if next > end + 1 {
                 problems.push(format!("iterations {}..{} are missing", end + 1, next - 1));
+            }
+            if p.last_iteration() > end {
+                (end, by) = (p.last_iteration(), k);
             }
         }
         if !problems.is_empty() {
@@ -141,12 +147,13 @@ impl Partial {
             i.radius = j.radius;
             i.volume_radius = j.volume_radius;
         }
+        out.info.settings.iterations = Some(out.last_iteration());
         Ok(out)
     }
 
     /// Writes the partial-render file (atomically).
     pub fn write(&self, path: &Path) -> Result<()> {
-        let header = self.header();
+        let header = self.header().map_err(|e| part_err(path, format!("not written: {e}")))?;
         let (sum, sum_sq) = self.film.sums();
         let state = self.state.as_deref().unwrap_or(&[]);
         write_atomically(path, |w| {
@@ -182,7 +189,7 @@ impl Partial {
         h.finalize().into()
     }
 
-    fn header(&self) -> String {
+    fn header(&self) -> std::result::Result<String, String> {
         let i = &self.info;
         let mut t = toml::Table::new();
         let mut put = |k: &str, v: toml::Value| {
@@ -206,9 +213,9 @@ impl Partial {
         if let Some(scene) = i.scene.as_ref().and_then(|p| p.to_str()) {
             put("scene", scene.into());
         }
-        let settings = toml::Table::try_from(&i.settings).unwrap_or_default();
+        let settings = toml::Table::try_from(&i.settings).map_err(|e| e.to_string())?;
         put("settings", toml::Value::Table(settings));
-        toml::to_string(&t).unwrap_or_default()
+        toml::to_string(&t).map_err(|e| e.to_string())
     }
 
     /// Reads a partial-render file, checking its structure and checksum.

@@ -257,7 +257,10 @@ pub const PILOT_PATHS: u64 = 1000;
 /// buffers. An estimate: paths vary.
 pub fn memory_estimate(scene: &Scene, settings: &RenderSettings) -> u64 {
     let [w, h] = scene.camera.resolution;
-    let image = w as u64 * h as u64 * 96; // film sums and squares (f64) and the iteration image
+    // Film sums and squares (i128 × 3 each), the iteration image, and the original PPM's two
+    // copies of its per-pixel statistics (64 bytes each).
+    let per_pixel = 96 + 12 + if settings.progression == Progression::Original { 128 } else { 0 };
+    let image = w as u64 * h as u64 * per_pixel;
     if !settings.integrator.uses_photons() || scene.lights.is_empty() {
         return image;
     }

@@ -178,6 +178,14 @@ pub fn parse_duration(s: &str) -> Result<f64, String> {
 
 // Range checks: each takes the value and says what is wrong with it.
 
+fn seed_range(v: &u64) -> Result<(), String> {
+    if *v <= i64::MAX as u64 {
+        Ok(())
+    } else {
+        Err(format!("must lie in 0..={} (a TOML integer), got {v}", i64::MAX))
+    }
+}
+
 fn any<T>(_: &T) -> Result<(), String> {
     Ok(())
 }
@@ -386,9 +394,9 @@ render_settings! {
     max_bounces: u32 = 64, bounce_limit;
 
     /// Seed of every random stream: the same scene, seed and iteration count give the same
-    /// image, whatever the number of threads.
+    /// image, whatever the number of threads (0 to 2⁶³ − 1: TOML's integers).
     [short = 's', long, value_name = "S"]
-    seed: u64 = 0, any;
+    seed: u64 = 0, seed_range;
 
     /// In-scattering estimate along eye paths in media.
     [long, value_name = "KIND"]

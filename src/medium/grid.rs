@@ -270,14 +270,21 @@ fn read_voxels<R: Read + Seek>(
         return Err(err(format!("grid `{name}`: invalid voxel size {voxel_size}")));
     }
     // Gather voxels and tiles: (position of the first voxel, edge length in voxels, value).
-    let mut items: Vec<(IVec3, i32, f32)> = Vec::new();
-    let mut counted: u64 = 0;
-    for (p, v, level) in grid.iter() {
-        let edge = level.scale() as i32;
-        let p = IVec3::new(p.x as i32, p.y as i32, p.z as i32);
-        counted += (edge as u64).pow(3);
-        items.push((p, edge, v));
-    }
+    // vdb-rs indexes its leaf buffers here, so a corrupt file can still make it panic: contained.
+    let gathered = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let mut items: Vec<(IVec3, i32, f32)> = Vec::new();
+        let mut counted: u64 = 0;
+        for (p, v, level) in grid.iter() {
+            let edge = level.scale() as i32;
+            let p = IVec3::new(p.x as i32, p.y as i32, p.z as i32);
+            counted += (edge as u64).pow(3);
+            items.push((p, edge, v));
+        }
+        (items, counted)
+    }));
+    let Ok((items, counted)) = gathered else {
+        return Err(err(format!("grid `{name}`: corrupt data (the reader failed)")));
+    };
     let expected = match gd.meta_data.0.get("file_voxel_count") {
         Some(vdb_rs::MetadataValue::I64(n)) => Some(*n as u64),
         _ => None,

@@ -116,8 +116,9 @@ fn metadata(c: &mut Cursor) -> Result<bool, ScanError> {
             _ => len, // strings and unknown types: `len` bytes
         };
         let value = c.take(size, "metadata value")?;
-        if name == b"is_saved_as_half_float" && ty == b"bool" {
-            half = value[0] != 0;
+        if name == b"is_saved_as_half_float" {
+            // vdb-rs keeps the last entry of a name: so does this.
+            half = ty == b"bool" && value[0] != 0;
         }
     }
     Ok(half)
@@ -165,7 +166,8 @@ pub(crate) fn scan(bytes: &[u8], grid: &str) -> Result<(), ScanError> {
         }
         c.seek(end_pos, "a grid end position")?;
         let d = Descriptor { grid_type, grid_pos, block_pos, compression, half };
-        if name == grid.as_bytes() && found.is_none() {
+        // vdb-rs decodes names byte by byte as Latin-1 and keeps the last grid of a name.
+        if name.iter().map(|&b| b as char).eq(grid.chars()) {
             found = Some(d);
         }
     }

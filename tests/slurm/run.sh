@@ -28,10 +28,11 @@ cleanup() {
     for pidfile in "$WORK/slurmd.pid" "$WORK/slurmctld.pid"; do
         [ -f "$pidfile" ] && kill "$(cat "$pidfile")" 2>/dev/null
     done
-    pkill -x slurmd 2>/dev/null; pkill -x slurmctld 2>/dev/null
     [ -n "$MUNGE_PID" ] && kill "$MUNGE_PID" 2>/dev/null
     sleep 1
-    pkill -9 -x slurmd 2>/dev/null; pkill -9 -x slurmctld 2>/dev/null
+    for pidfile in "$WORK/slurmd.pid" "$WORK/slurmctld.pid"; do
+        [ -f "$pidfile" ] && kill -9 "$(cat "$pidfile")" 2>/dev/null
+    done
     if [ "${KEEP:-0}" != 1 ]; then rm -rf "$WORK"; fi
 }
 trap cleanup EXIT
@@ -44,8 +45,10 @@ if [ ! -s /etc/munge/munge.key ]; then
 fi
 chown munge:munge /etc/munge/munge.key
 chmod 0400 /etc/munge/munge.key
-runuser -u munge -- /usr/sbin/munged --force
-MUNGE_PID=$(cat /run/munge/munged.pid 2>/dev/null || true)
+if ! munge -n 2>/dev/null | unmunge >/dev/null 2>&1; then
+    runuser -u munge -- /usr/sbin/munged --force
+    MUNGE_PID=$(cat /run/munge/munged.pid 2>/dev/null || true)
+fi
 munge -n | unmunge >/dev/null || fail "munge does not work"
 
 mkdir -p "$WORK/state" "$WORK/spool"

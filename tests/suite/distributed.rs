@@ -102,6 +102,8 @@ fn incompatible_parts_are_refused_with_the_reason() {
     assert!(e.contains("iterations 3..4 are missing"), "{e}");
     let e = Partial::merge(vec![part(1, 3), part(3, 4)]).unwrap_err();
     assert!(e.contains("overlap"), "{e}");
+    let e = Partial::merge(vec![part(1, 6), part(2, 3), part(5, 6)]).unwrap_err();
+    assert!(e.contains("overlap") && !e.contains("missing"), "{e}");
     let other = run(&scene, &RenderSettings { alpha: 0.5, ..s.clone() }, Start::At(3), 4);
     let e = Partial::merge(vec![part(1, 2), other]).unwrap_err();
     assert!(e.contains("render.alpha"), "{e}");
@@ -181,6 +183,8 @@ fn the_command_line_splits_merges_and_resumes_exactly() {
     haze(&["-n", "7", "-o", "whole.exr"]);
     haze(&["-n", "1..3", "-o", "a.hpr"]);
     haze(&["--iterations=4..7", "-o", "b.hpr"]);
+    haze(&["-n", "1..2", "-o", "c.exr"]);
+    assert!(dir.join("c.hpr").exists(), "a range from 1 keeps its partial beside the image");
     let o = Command::new(env!("CARGO_BIN_EXE_haze"))
         .args(["merge", "b.hpr", "a.hpr", "-o", "merged.exr"])
         .current_dir(&dir)

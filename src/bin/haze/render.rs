@@ -95,7 +95,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         }
         (None, None) => Start::At(1),
     };
-    let ranged = !matches!(start, Start::At(1)) || partial_only;
+    let ranged = args.first_iteration.is_some() || args.resume.is_some() || partial_only;
     let preview = haze::output::preview_path(&output);
     if output.extension().is_some_and(|e| e == "exr")
         && preview.exists()
