@@ -95,6 +95,11 @@ pub mod fuzzing {
         crate::scene::shape::obj_from_bytes(bytes, Path::new("fuzz.obj")).map(|_| ())
     }
 
+    /// The structural pre-scan of OpenVDB bytes alone (see `src/medium/vdbscan.rs`).
+    pub fn vdb_scan(bytes: &[u8], grid: &str) -> Result<(), String> {
+        crate::medium::vdbscan::scan(bytes, grid)
+    }
+
     /// The OpenVDB loader (pre-scan, vdb-rs, checks, dense copy) on a file's bytes, grid
     /// `density`.
     pub fn vdb(bytes: &[u8]) -> crate::Result<()> {

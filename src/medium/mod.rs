@@ -14,7 +14,7 @@ pub mod grid;
 pub mod homogeneous;
 pub mod phase;
 pub mod vdb;
-mod vdbscan;
+pub(crate) mod vdbscan;
 
 use crate::math::Rgb;
 use crate::rng::Sampler;
