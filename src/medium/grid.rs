@@ -448,6 +448,9 @@ mod tests {
         for file in ["bad/holes-0x230c.vdb", "bad/cloud-0x3b3d6.vdb", "bad/box-0xec.vdb"] {
             expect_error(&media(file), "density", &["corrupt file at byte", "remain"]);
         }
+        // Found by the `vdb` fuzz target: a Blosc header claiming more compressed bytes than its
+        // block holds made c-blosc read past the buffer (AddressSanitizer: heap-buffer-overflow).
+        expect_error(&media("bad/blosc-cbytes.vdb"), "density", &["Blosc block of 118 bytes"]);
     }
 
     /// Every byte of box.vdb set to 0x00, 0xff and flipped in turn: each load returns (a grid or

@@ -255,12 +255,25 @@ fn values(c: &mut Cursor, d: &Descriptor, n: usize, active: usize) -> Result<(),
         } else {
             let block = c.take(size as u64, "compressed values")?;
             if count > 0 {
-                // The Blosc header holds the decompressed size at bytes 4..8.
-                let out =
-                    block.get(4..8).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()));
-                if out != Some(bytes as u32) {
+                // The 16-byte Blosc header: decompressed size at 4..8, compressed size at 12..16,
+                // which c-blosc 1.x trusts over the buffer's real length (a larger one made it
+                // read past the buffer: found by the `vdb` fuzz target).
+                let word = |k: usize| {
+                    block
+                        .get(k..k + 4)
+                        .map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
+                };
+                if word(12).is_none_or(|n| n < 16 || n as usize > block.len()) {
                     return c.fail(&format!(
-                        "compressed block expands to {out:?} bytes, not {bytes} for {count} values"
+                        "Blosc block of {} bytes says it holds {:?}",
+                        block.len(),
+                        word(12)
+                    ));
+                }
+                if word(4) != Some(bytes as u32) {
+                    return c.fail(&format!(
+                        "compressed block expands to {:?} bytes, not {bytes} for {count} values",
+                        word(4)
                     ));
                 }
             }
@@ -268,7 +281,12 @@ fn values(c: &mut Cursor, d: &Descriptor, n: usize, active: usize) -> Result<(),
     } else if d.compression & ZIP != 0 {
         let size = c.i64("compressed size")?;
         if size <= 0 {
-            c.take(size.unsigned_abs(), "values")?;
+            // vdb-rs reads |size| / 4 values here: anything but the node's count would leave it
+            // reading other bytes than this scan checked, or short of values.
+            if size.unsigned_abs() != bytes {
+                return c.fail(&format!("stored block of {} bytes for {count} values", -size));
+            }
+            c.take(bytes, "values")?;
         } else {
             c.take(size as u64, "compressed values")?;
         }

@@ -126,7 +126,7 @@ fn check_output_dir(what: &str, path: &Path) -> Result<()> {
     haze::output::check_writable(path).with_context(|| what.to_string())
 }
 
-/// The command line with `--iterations A..B` (or `-n A..B`, `--iterations=A..B`) rewritten as
+/// The command line with `--iterations A..B` (or `-n A..B`, `-nA..B`, `--iterations=A..B`) rewritten as
 /// `--iterations B --first-iteration A`: a range of iterations is the last index plus where the
 /// range starts.
 fn expand_ranges(args: impl Iterator<Item = std::ffi::OsString>) -> Vec<std::ffi::OsString> {
@@ -139,6 +139,10 @@ fn expand_ranges(args: impl Iterator<Item = std::ffi::OsString>) -> Vec<std::ffi
             Some(t) if t.starts_with("--iterations=") => {
                 (Some("--iterations"), Some(t["--iterations=".len()..].to_string()))
             }
+            Some(t) if t.starts_with("-n") && t.len() > 2 && !t.starts_with("-n=") => {
+                (Some("-n"), Some(t[2..].to_string()))
+            }
+            Some(t) if t.starts_with("-n=") => (Some("-n"), Some(t[3..].to_string())),
             _ => (None, None),
         };
         after_flag = matches!(text.as_deref(), Some("-n" | "--iterations"));
@@ -196,4 +200,35 @@ fn default_output(scene: &Path, output: Option<PathBuf>, extension: &str) -> Pat
     output.unwrap_or_else(|| {
         PathBuf::from(scene.file_stem().unwrap_or("render".as_ref())).with_extension(extension)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::expand_ranges;
+
+    fn expand(args: &[&str]) -> Vec<String> {
+        expand_ranges(args.iter().map(|a| a.into()))
+            .into_iter()
+            .map(|a| a.into_string().unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn iteration_ranges_become_a_last_index_and_a_first() {
+        let range = ["--first-iteration", "3"];
+        for form in
+            [&["-n", "3..9"][..], &["--iterations", "3..9"], &["--iterations=3..9"], &["-n3..9"]]
+        {
+            let mut args = vec!["haze", "render", "../s.toml"];
+            args.extend_from_slice(form);
+            let out = expand(&args);
+            assert_eq!(&out[..3], ["haze", "render", "../s.toml"], "{form:?}");
+            assert_eq!(out[4], "9", "{form:?}: {out:?}");
+            assert_eq!(&out[5..], range, "{form:?}: {out:?}");
+        }
+        assert_eq!(
+            expand(&["haze", "render", "a..b.toml", "-n", "7"]),
+            ["haze", "render", "a..b.toml", "-n", "7"]
+        );
+    }
 }
