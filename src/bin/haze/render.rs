@@ -174,7 +174,8 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),
     };
     let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-    let range = if i.first_iteration > 1 || args.resume.is_some() {
+    let range = if i.first_iteration > 1 || args.resume.is_some() || args.first_iteration.is_some()
+    {
         format!(" ({}..{})", i.first_iteration, i.first_iteration + i.iterations - 1)
     } else {
         String::new()
