@@ -357,7 +357,8 @@ macro_rules! render_settings {
 render_settings! {
     /// Stop after this many iterations (photon-mapping passes) to average; given a time limit
     /// alone (`time_limit`, `--time`), a later layer drops the count and renders until the time
-    /// is up.
+    /// is up. On the command line `A..B` renders iterations A to B as a partial render, for
+    /// `haze merge` (docs/distributed.md).
     [short = 'n', long, value_name = "N"]
     iterations: u64, optional = Some(DEFAULT_ITERATIONS), at_least_one;
 
