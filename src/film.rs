@@ -98,6 +98,9 @@ impl Film {
 
     /// Adds the sums of another film of the same size (disjoint iterations, e.g. another range
     /// of the same render). Exact: the result does not depend on the order of merging.
+    ///
+    /// # Panics
+    /// If the sizes differ ([`crate::Partial::merge`] checks before it merges).
     pub fn merge(&mut self, other: &Film) {
         assert_eq!((self.width, self.height), (other.width, other.height), "film sizes differ");
         let mut saturated = 0;

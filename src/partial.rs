@@ -61,22 +61,32 @@ impl Partial {
     /// Checks that `other` is a piece of the same render: same scene fingerprint, image size and
     /// settings (all but `iterations` and `time_limit`). The error names the first difference.
     pub fn check_compatible(&self, other: &Partial) -> std::result::Result<(), String> {
-        if self.fingerprint != other.fingerprint {
+        let size = [other.film.width(), other.film.height()];
+        self.check_matches(&other.fingerprint, size, &other.info.settings)
+    }
+
+    /// Checks that this is a piece of a render of the scene with `fingerprint` at `size` with
+    /// `settings` (all but `iterations` and `time_limit` must agree), as a resume needs. The
+    /// error names the first difference, this partial's value first.
+    pub fn check_matches(
+        &self,
+        fingerprint: &[u8; 32],
+        size: [u32; 2],
+        settings: &RenderSettings,
+    ) -> std::result::Result<(), String> {
+        if &self.fingerprint != fingerprint {
             return Err("renders of different scenes (or of a scene, mesh or volume file that \
                  changed in between): their fingerprints differ"
                 .into());
         }
-        let (a, b) = (&self.film, &other.film);
-        if (a.width(), a.height()) != (b.width(), b.height()) {
+        let own = [self.film.width(), self.film.height()];
+        if own != size {
             return Err(format!(
                 "image sizes differ: {}x{} and {}x{}",
-                a.width(),
-                a.height(),
-                b.width(),
-                b.height()
+                own[0], own[1], size[0], size[1]
             ));
         }
-        let (ka, kb) = (merge_key(&self.info.settings), merge_key(&other.info.settings));
+        let (ka, kb) = (merge_key(&self.info.settings), merge_key(settings));
         for ((k, va), (_, vb)) in ka.iter().zip(&kb) {
             if va != vb {
                 return Err(format!("settings differ: render.{k} = {va} and {vb}"));

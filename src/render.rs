@@ -120,15 +120,7 @@ pub fn render_partial(
         }
         Start::Resume(p) => {
             let p = *p;
-            let fresh = Partial {
-                info: p.info.clone(),
-                film: Film::new(width, height),
-                fingerprint,
-                state: None,
-            };
-            let fresh =
-                Partial { info: RenderInfo { settings: settings.clone(), ..fresh.info }, ..fresh };
-            fresh.check_compatible(&p).map_err(|m| {
+            p.check_matches(&fingerprint, [width, height], settings).map_err(|m| {
                 Error::Settings(format!("cannot resume from this partial render: {m}"))
             })?;
             if let Some(state) = &p.state {

@@ -245,53 +245,41 @@ fn values(c: &mut Cursor, d: &Descriptor, n: usize, active: usize) -> Result<(),
     }
     let count = if d.compression & ACTIVE_MASK != 0 && meta != 6 { active } else { n };
     let bytes = (count * 4) as u64;
-    if d.compression & BLOSC != 0 {
-        let size = c.i64("compressed size")?;
-        if size <= 0 {
-            if size.unsigned_abs() != bytes {
-                return c.fail(&format!("stored block of {} bytes for {count} values", -size));
-            }
-            c.take(bytes, "values")?;
-        } else {
-            let block = c.take(size as u64, "compressed values")?;
-            if count > 0 {
-                // The 16-byte Blosc header: decompressed size at 4..8, compressed size at 12..16,
-                // which c-blosc 1.x trusts over the buffer's real length (a larger one made it
-                // read past the buffer: found by the `vdb` fuzz target).
-                let word = |k: usize| {
-                    block
-                        .get(k..k + 4)
-                        .map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
-                };
-                if word(12).is_none_or(|n| n < 16 || n as usize > block.len()) {
-                    return c.fail(&format!(
-                        "Blosc block of {} bytes says it holds {:?}",
-                        block.len(),
-                        word(12)
-                    ));
-                }
-                if word(4) != Some(bytes as u32) {
-                    return c.fail(&format!(
-                        "compressed block expands to {:?} bytes, not {bytes} for {count} values",
-                        word(4)
-                    ));
-                }
-            }
-        }
-    } else if d.compression & ZIP != 0 {
-        let size = c.i64("compressed size")?;
-        if size <= 0 {
-            // vdb-rs reads |size| / 4 values here: anything but the node's count would leave it
-            // reading other bytes than this scan checked, or short of values.
-            if size.unsigned_abs() != bytes {
-                return c.fail(&format!("stored block of {} bytes for {count} values", -size));
-            }
-            c.take(bytes, "values")?;
-        } else {
-            c.take(size as u64, "compressed values")?;
-        }
-    } else {
+    if d.compression & (BLOSC | ZIP) == 0 {
         c.take(bytes, "values")?;
+        return Ok(());
+    }
+    let size = c.i64("compressed size")?;
+    if size <= 0 {
+        // Stored uncompressed: vdb-rs reads |size| / 4 values, so anything but the node's count
+        // would leave it reading other bytes than this scan checked, or short of values.
+        if size.unsigned_abs() != bytes {
+            return c.fail(&format!("stored block of {} bytes for {count} values", -size));
+        }
+        c.take(bytes, "values")?;
+        return Ok(());
+    }
+    let block = c.take(size as u64, "compressed values")?;
+    if d.compression & BLOSC != 0 && count > 0 {
+        // The 16-byte Blosc header: decompressed size at 4..8, compressed size at 12..16, which
+        // c-blosc 1.x trusts over the buffer's real length (a larger one made it read past the
+        // buffer: found by the `vdb` fuzz target). Zip streams are bounded by their decoder.
+        let word = |k: usize| {
+            block.get(k..k + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
+        };
+        if word(12).is_none_or(|n| n < 16 || n as usize > block.len()) {
+            return c.fail(&format!(
+                "Blosc block of {} bytes says it holds {:?}",
+                block.len(),
+                word(12)
+            ));
+        }
+        if word(4) != Some(bytes as u32) {
+            return c.fail(&format!(
+                "compressed block expands to {:?} bytes, not {bytes} for {count} values",
+                word(4)
+            ));
+        }
     }
     Ok(())
 }

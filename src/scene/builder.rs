@@ -349,6 +349,7 @@ impl SceneBuilder {
             bounds: (lo, hi),
             source: self.source,
             accel,
+            fingerprint: Default::default(),
         };
         debug_assert_eq!(scene.lights.len(), scene.light_media.len());
         scene.check_media()?;

@@ -138,6 +138,8 @@ pub struct Scene {
     /// The scene file, if loaded from one.
     pub(crate) source: Option<PathBuf>,
     pub(crate) accel: Accel,
+    /// [`Scene::fingerprint`], computed on first use (and forgotten when the resolution changes).
+    pub(crate) fingerprint: std::sync::OnceLock<[u8; 32]>,
 }
 
 impl Scene {
@@ -164,6 +166,10 @@ impl Scene {
     /// the scene file or to any mesh or volume it loads changes it. Partial renders carry it, and
     /// only renders of the same scene are merged or resumed.
     pub fn fingerprint(&self) -> [u8; 32] {
+        *self.fingerprint.get_or_init(|| self.compute_fingerprint())
+    }
+
+    fn compute_fingerprint(&self) -> [u8; 32] {
         use sha2::Digest;
         let mut h = sha2::Sha256::new();
         let mut feed = |b: &[u8]| h.update(b);
@@ -206,6 +212,7 @@ impl Scene {
     pub fn set_resolution(&mut self, resolution: [u32; 2]) -> Result<()> {
         camera::check_resolution(resolution).map_err(|m| invalid("camera.resolution".into(), m))?;
         self.camera.resolution = resolution;
+        self.fingerprint = Default::default();
         Ok(())
     }
 

@@ -1,8 +1,9 @@
 //! `haze diff`: two images compared pixel by pixel (bit for bit, then by size of difference).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
-use std::path::{Path, PathBuf};
+use haze::lab::converge::Reference;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Args)]
@@ -13,25 +14,12 @@ pub(crate) struct DiffArgs {
     b: PathBuf,
 }
 
-/// The RGB pixels of an EXR file's first layer, row-major, and its size.
-fn read(path: &Path) -> Result<(Vec<[f32; 3]>, usize, usize)> {
-    let image = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |size, _| (vec![[0f32; 3]; size.width() * size.height()], size.width()),
-        |(px, w): &mut (Vec<[f32; 3]>, usize), pos, (r, g, b, _): (f32, f32, f32, f32)| {
-            px[pos.y() * *w + pos.x()] = [r, g, b];
-        },
-    )
-    .with_context(|| format!("{}: cannot read it as OpenEXR", path.display()))?;
-    let (px, w) = image.layer_data.channel_data.pixels;
-    let h = px.len() / w.max(1);
-    Ok((px, w, h))
-}
-
 /// Exit 0 if the pixels are bit-identical, 1 if they differ (with how much).
 pub(crate) fn run(args: DiffArgs) -> Result<ExitCode> {
-    let (a, wa, ha) = read(&args.a)?;
-    let (b, wb, hb) = read(&args.b)?;
+    // The lab's reader: the first layer's RGB, with errors naming the file.
+    let (a, b) = (Reference::load(&args.a)?, Reference::load(&args.b)?);
+    let ((wa, ha), (wb, hb)) = ((a.width, a.height), (b.width, b.height));
+    let (a, b) = (a.pixels, b.pixels);
     if (wa, ha) != (wb, hb) {
         bail!("sizes differ: {wa}x{ha} and {wb}x{hb}");
     }

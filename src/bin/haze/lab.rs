@@ -1,7 +1,7 @@
 //! The lab's commands: `haze converge` (error against time) and `haze validate` (analytic media).
 
 use crate::signals::Interrupt;
-use crate::{Overrides, check_output_dir, max_threads, thread_pool};
+use crate::{Overrides, check_output_dir, thread_pool};
 use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -157,9 +157,6 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
 
 pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
     use haze::lab::validate::{self, Effort};
-    if let Some(t) = args.threads.filter(|&t| t == 0 || t > max_threads()) {
-        bail!("--threads {t}: must lie in 1..={}", max_threads());
-    }
     if let Some(p) = &args.markdown {
         check_output_dir("--markdown", p)?;
     }

@@ -95,15 +95,6 @@ impl Overrides {
         if let Err(e) = s.validate() {
             bail!("--{} (or the scene's render.{}): {}", flag(e.key), e.key, e.message);
         }
-        if let Some(t) = self.threads {
-            let max = max_threads();
-            if t == 0 || t > max {
-                bail!(
-                    "--threads {t}: must lie in 1..={max} (8 per core on this machine; more \
-                     only adds overhead)"
-                );
-            }
-        }
         Ok(s)
     }
 }
@@ -113,9 +104,16 @@ fn max_threads() -> usize {
     8 * std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
+/// The worker pool of every command, `--threads` checked against [`max_threads`].
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(t) = threads {
+        let max = max_threads();
+        if t == 0 || t > max {
+            bail!(
+                "--threads {t}: must lie in 1..={max} (8 per core on this machine; more only adds overhead)"
+            );
+        }
         b = b.num_threads(t);
     }
     b.build().context("cannot start worker threads")

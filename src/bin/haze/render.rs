@@ -112,6 +112,26 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let interrupt = Interrupt::install()?;
     let stop = interrupt.flag();
     let bar = if args.quiet { ProgressBar::hidden() } else { progress_bar(&settings) };
+    // Every write of the outputs — snapshots and the last — in one place: the partial render if
+    // asked for, then the image unless the output is a partial alone; a second signal waits.
+    let write = |part: &Partial, with_partial: bool| {
+        interrupt.writing(|| -> haze::Result<Vec<PathBuf>> {
+            let mut written = Vec::new();
+            if with_partial {
+                part.write(&partial_path)?;
+                written.push(partial_path.clone());
+            }
+            if !partial_only {
+                let image = part.image();
+                written.extend(if args.reference {
+                    image.write_reference(&output, args.exposure)?
+                } else {
+                    image.write(&output, args.exposure)?
+                });
+            }
+            Ok(written)
+        })
+    };
     let mut last_snapshot = Instant::now();
     let mut snapshot_error = None;
     let mut on_iteration = |s: &Status| {
@@ -119,12 +139,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         if let Some(every) = args.snapshot_every {
             if last_snapshot.elapsed().as_secs_f64() >= every {
                 last_snapshot = Instant::now();
-                let (image, part) = (s.snapshot(), s.partial());
-                let written = interrupt.writing(|| {
-                    part.write(&partial_path)?;
-                    if partial_only { Ok(vec![]) } else { image.write(&output, args.exposure) }
-                });
-                if let Err(e) = written {
+                if let Err(e) = write(&s.partial(), true) {
                     snapshot_error.get_or_insert(e);
                 }
             }
@@ -133,11 +148,10 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let part =
         pool.install(|| haze::render_partial(&scene, &settings, start, &mut on_iteration, stop))?;
     bar.finish_and_clear();
-    let image = part.image();
     if let Some(e) = snapshot_error {
         eprintln!("warning: a snapshot could not be written: {e}");
     }
-    if image.info.iterations == 0 {
+    if part.info.iterations == 0 {
         if let (Some(name), Some(code)) = (interrupt.name(), interrupt.exit_code()) {
             eprintln!("error: {name} before the first iteration finished; nothing written");
             return Ok(code);
@@ -149,22 +163,8 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         );
     }
     let keep_partial = ranged || args.snapshot_every.is_some() || interrupt.name().is_some();
-    let written = interrupt.writing(|| -> haze::Result<Vec<PathBuf>> {
-        let mut written = Vec::new();
-        if keep_partial {
-            part.write(&partial_path)?;
-            written.push(partial_path.clone());
-        }
-        if !partial_only {
-            written.extend(if args.reference {
-                image.write_reference(&output, args.exposure)?
-            } else {
-                image.write(&output, args.exposure)?
-            });
-        }
-        Ok(written)
-    })?;
-    let i = &image.info;
+    let written = write(&part, keep_partial)?;
+    let i = &part.info;
     let interrupted =
         interrupt.name().map(|n| format!(" (interrupted by {n})")).unwrap_or_default();
     let work = match i.settings.integrator {
@@ -174,8 +174,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),
     };
     let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-    let range = if i.first_iteration > 1 || args.resume.is_some() || args.first_iteration.is_some()
-    {
+    let range = if ranged {
         format!(" ({}..{})", i.first_iteration, i.first_iteration + i.iterations - 1)
     } else {
         String::new()
