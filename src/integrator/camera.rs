@@ -44,8 +44,9 @@ pub(crate) struct CameraPass {
     pub seed: u64,
     /// Iteration number (1-based).
     pub iteration: u64,
-    /// Maximum scattering events per eye path (pass-through interfaces are not events): the path
-    /// follows at most `max_bounces − 1` specular bounces.
+    /// Maximum scattering events per whole light-to-camera path (pass-through interfaces are not
+    /// events): an eye path of `max_bounces` specular bounces can still see an emitter, but it
+    /// gathers photons only before its last event.
     pub max_bounces: u32,
     /// Surface density estimation.
     pub surface: Gather,

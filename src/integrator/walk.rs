@@ -133,6 +133,11 @@ pub(crate) fn walk_eye(
     let mut path = EyePath::start(scene, seed, iteration, pixel, max_bounces);
     let mut crossings = 0u32;
     loop {
+        if path.depth >= path.max_bounces {
+            // The last allowed event was a specular bounce: the path may still reach an emitter.
+            to_emitter(&mut path, visitor, &mut crossings);
+            break;
+        }
         let hit = scene.intersect(path.o, path.d, f32::INFINITY);
         let step = match through_medium(&mut path, hit.as_ref(), visitor) {
             Some(step) => step,
@@ -211,9 +216,8 @@ fn at_surface(
             Next::Continue | Next::Stop => Step::Stop,
         },
         _ => {
-            if path.last() {
-                return Step::Stop;
-            }
+            // A specular bounce may be the path's last event: what it sees next can only be an
+            // emitter (`to_emitter`).
             let (u, u_lobe) = (path.s.next_2d(), path.s.next_f32());
             let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Radiance)
             else {
@@ -226,5 +230,40 @@ fn at_surface(
             visitor.after_specular(path);
             Step::Scattered
         }
+    }
+}
+
+/// Follows a path that has used up its events (its last one a specular bounce) straight on,
+/// through pass-through interfaces and the transmittance of the media it crosses, and adds the
+/// emitter it reaches, if any: light → (specular)* → eye paths of exactly `max_bounces` events.
+fn to_emitter(path: &mut EyePath, visitor: &mut impl EyeVisitor, crossings: &mut u32) {
+    let scene = path.scene;
+    loop {
+        let hit = scene.intersect(path.o, path.d, f32::INFINITY);
+        if let Some(id) = path.medium {
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+            let m = &scene.media[id as usize];
+            path.beta *= m.transmittance(path.o, path.d, t_max, &mut path.s);
+            if path.beta.max_element() <= 0.0 {
+                return;
+            }
+        }
+        let Some(hit) = hit else { return };
+        let wo = -path.d;
+        let shape = &scene.shapes[hit.tag as usize];
+        if let Some(le) = shape.emission {
+            if wo.dot(hit.ng) > 0.0 {
+                path.l += visitor.emission(path, &hit, le);
+            }
+        }
+        if scene.materials[shape.material as usize] != Material::Interface {
+            return;
+        }
+        *crossings += 1;
+        if *crossings > MAX_CROSSINGS {
+            return;
+        }
+        path.medium = shape.medium_after(path.medium, wo, path.d, hit.ng);
+        path.o = offset_origin(hit.p, hit.ng, path.d);
     }
 }
