@@ -2,9 +2,9 @@
 //! lights as the photon mapper. It gives references for scenes without closed forms and is the
 //! baseline photon mapping is measured against.
 //!
-//! Each iteration traces one path per pixel. At every diffuse surface vertex and every real
-//! collision in a medium, one light is chosen in proportion to its power and connected by a shadow
-//! ray; the shadow ray passes through pass-through interfaces (switching media and multiplying
+//! Each iteration traces one path per pixel. At every diffuse surface vertex, and along every
+//! segment in a medium (single scattering, `single.rs`), one light is chosen by its estimated
+//! contribution there (`LightSampler::pick`) and connected by a shadow ray; the shadow ray passes through pass-through interfaces (switching media and multiplying
 //! their transmittance: exact for homogeneous media, ratio tracking for grids) and is blocked by
 //! anything else. An area light reached by the path after a diffuse or phase-function scattering
 //! also counts, and the two ways of finding it are combined by multiple importance sampling (power
@@ -29,10 +29,9 @@ use crate::medium::Medium;
 use crate::progress::StepTimes;
 use crate::rng::Sampler;
 use crate::scene::Scene;
-use crate::scene::light::LightSampler;
+use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
 use crate::settings::RenderSettings;
-use glam::Vec3;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
 
@@ -114,9 +113,9 @@ struct PathEye<'a> {
     lights: &'a LightSampler,
     /// Emitters the path reaches count in full (from the camera or after a specular bounce).
     count_emission: bool,
-    /// After a diffuse or phase-function scattering: where it happened and the density of the
-    /// direction taken, for the MIS weight of an emitter the path reaches.
-    scattered_from: Option<(Vec3, f32)>,
+    /// After a diffuse scattering: where it happened and the density of the direction taken,
+    /// for the MIS weight of an emitter the path reaches.
+    scattered_from: Option<(Receiver, f32)>,
 }
 
 impl EyeVisitor for PathEye<'_> {
@@ -151,8 +150,8 @@ impl EyeVisitor for PathEye<'_> {
     fn emission(&mut self, path: &EyePath, hit: &Hit, le: Rgb) -> Rgb {
         if self.count_emission {
             path.beta * le
-        } else if let Some((from, pdf_dir)) = self.scattered_from {
-            path.beta * le * emission_weight(self.lights, hit, -path.d, from, pdf_dir)
+        } else if let Some((from, pdf_dir)) = &self.scattered_from {
+            path.beta * le * emission_weight(self.lights, hit, -path.d, from, *pdf_dir)
         } else {
             Rgb::ZERO
         }
@@ -161,14 +160,14 @@ impl EyeVisitor for PathEye<'_> {
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
         let wo = -path.d;
         let ng = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-        let p = offset_origin(hit.p, ng, ng);
+        let r = Receiver::surface(offset_origin(hit.p, ng, ng), ng);
         let last = path.last();
         let (hit_ng, hit_ns) = (hit.ng, hit.ns);
         path.l += path.beta
             * next_event(
                 path.scene,
                 self.lights,
-                p,
+                &r,
                 path.medium,
                 &mut path.s,
                 |wi| material.eval(wo, wi, hit_ng, hit_ns, Transport::Radiance),
@@ -183,8 +182,8 @@ impl EyeVisitor for PathEye<'_> {
         };
         path.beta *= bs.weight;
         self.count_emission = false;
-        self.scattered_from = Some((p, bs.pdf));
-        Next::Scatter { o: p, d: bs.wi }
+        self.scattered_from = Some((r, bs.pdf));
+        Next::Scatter { o: r.p, d: bs.wi }
     }
 
     fn after_specular(&mut self, _path: &mut EyePath) {

@@ -28,7 +28,7 @@ use crate::math::Rgb;
 use crate::medium::{Medium, SegmentTransmittance, TransmittanceDistance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
-use crate::scene::light::{LightPoint, LightSampler};
+use crate::scene::light::{LightPoint, LightSampler, Receiver, Segment};
 use glam::Vec3;
 
 /// Equiangular sampling of t ∈ [t0, t1] on the ray o + t d towards the point y.
@@ -82,34 +82,72 @@ pub(crate) fn single_scattering(
         return Rgb::ZERO;
     }
     let Some((t0, t1)) = medium.scattering_extent(o, d, t_max) else { return Rgb::ZERO };
-    let (li, p_light) = lights.pick(s.next_f32());
-    let light = &scene.lights[li];
-    let point = light.sample_point(s);
+    let tr_mean = |t: f32| crate::math::luminance(tr.at(t));
+    let seg = Segment { o, d, t0, t1, tr: &tr_mean };
+    // Strategy E (equiangular): a light with a position chosen for the segment, a point of it,
+    // and a distance towards that point.
+    let u_light = s.next_f32();
+    let e_light = lights.pick_along(&seg, u_light);
+    let e_point = e_light.and_then(|(li, _)| scene.lights[li].sample_point(s));
     let along = TransmittanceDistance::new(tr, t0, t1);
-    let towards = point.as_ref().and_then(|y| Equiangular::new(o, d, y.p, t0, t1));
-    let pdfs = |t: f32| {
-        (towards.as_ref().map_or(0.0, |e| e.pdf(t)), along.as_ref().map_or(0.0, |a| a.pdf(t)))
-    };
-    let mut sum = Rgb::ZERO;
+    let towards = e_point.as_ref().and_then(|y| Equiangular::new(o, d, y.p, t0, t1));
     let (u_e, u_a) = (s.next_f32(), s.next_f32());
-    let samples = [towards.as_ref().map(|e| e.sample(u_e)), along.as_ref().map(|a| a.sample(u_a))];
-    let light = Connection { lights, li, p_light, point: point.as_ref() };
-    for (t, pdf) in samples.into_iter().flatten() {
-        if !(pdf > 0.0 && t.is_finite()) {
-            continue;
+    let t_e = towards.as_ref().map(|e| e.sample(u_e));
+    let t_a = along.as_ref().map(|a| a.sample(u_a));
+    // Strategy A (transmittance): a distance, then a light chosen at that point. With one light
+    // in the scene the choice is that light, whose point strategy E has drawn already.
+    let u_pick = if lights.len() > 1 { s.next_f32() } else { 0.0 };
+    let p_a = |t: f32| along.as_ref().map_or(0.0, |a| a.pdf(t));
+    let p_e = |t: f32| towards.as_ref().map_or(0.0, |e| e.pdf(t));
+    let mut sum = Rgb::ZERO;
+    if let (Some((t, pdf)), Some((li, p_seg)), Some(y)) = (t_e, e_light, e_point.as_ref()) {
+        if pdf > 0.0 && t.is_finite() {
+            let x = o + d * t;
+            let p_light = lights.prob(&Receiver::medium(x), li);
+            let connection = Connection { li, p_light, point: Some(y) };
+            // The light part's two densities over (t, light, point) against the phase part's
+            // two over t (module docs): with one light they are equal.
+            let (pa, pe) = (p_a(t), p_e(t));
+            let ratio = (pe + pa) / (pa + p_seg * pe / p_light);
+            let c = in_scattered(scene, lights, (id, medium), x, d, Some(&connection), ratio, s);
+            sum += tr.at(t) * c / (pe + pa);
         }
-        // Balance heuristic: the weight over the density is 1 / (p_e + p_a).
-        let (p_e, p_a) = pdfs(t);
-        let x = o + d * t;
-        let c = in_scattered(scene, (id, medium), x, d, &light, s);
-        sum += tr.at(t) * c / (p_e + p_a);
+    }
+    if let Some((t, pdf)) = t_a {
+        if pdf > 0.0 && t.is_finite() {
+            let x = o + d * t;
+            let chosen = lights.pick(&Receiver::medium(x), u_pick);
+            let (pa, pe) = (p_a(t), p_e(t));
+            let mut ratio = 1.0;
+            let mut own_point = None;
+            let connection = chosen.map(|(li, p_light)| {
+                let point = match e_light {
+                    Some((e_li, _)) if e_li == li => e_point.as_ref(),
+                    _ => {
+                        own_point = scene.lights[li].sample_point(s);
+                        own_point.as_ref()
+                    }
+                };
+                // Strategy E's density of this light, point and distance.
+                let pe_own = match (point, e_light) {
+                    (Some(_), Some((e_li, _))) if e_li == li => pe,
+                    (Some(y), _) => Equiangular::new(o, d, y.p, t0, t1).map_or(0.0, |e| e.pdf(t)),
+                    (None, _) => 0.0,
+                };
+                let p_seg = if pe_own > 0.0 { lights.prob_along(&seg, li) } else { 0.0 };
+                ratio = (pe + pa) / (pa + p_seg * pe_own / p_light);
+                Connection { li, p_light, point }
+            });
+            let c = in_scattered(scene, lights, (id, medium), x, d, connection.as_ref(), ratio, s);
+            sum += tr.at(t) * c / (pe + pa);
+        }
     }
     sum
 }
 
-/// The light chosen for a segment: its index, its selection probability, and its sampled point.
+/// The light chosen at a point: its index, its selection probability there, and its sampled
+/// point (`None` for a directional light).
 struct Connection<'a> {
-    lights: &'a LightSampler,
     li: usize,
     p_light: f32,
     point: Option<&'a LightPoint>,
@@ -117,16 +155,20 @@ struct Connection<'a> {
 
 /// σ_s(x) ∫ f_p(ω', −d) L_d(x, ω') dω': the direct light at `x` scattered towards the eye, by two
 /// strategies combined by MIS (power heuristic over solid-angle densities, as the path tracer's
-/// next-event estimation): a shadow ray to the chosen light's point, and a phase-sampled
-/// direction that may reach an emitter straight away. Phase sampling is what keeps a point close
-/// to a large emitter (a glowing wall in dense fog) from being found rarely and hugely by uniform
-/// points of the emitter.
+/// next-event estimation): a shadow ray to the chosen light's point (if a light was chosen),
+/// and a phase-sampled direction that may reach an emitter straight away. Phase sampling is what
+/// keeps a point close to a large emitter (a glowing wall in dense fog) from being found rarely
+/// and hugely by uniform points of the emitter. The light part is scaled by `ratio`, the phase
+/// part's density over distances divided by the light part's (module docs).
+#[allow(clippy::too_many_arguments)]
 fn in_scattered(
     scene: &Scene,
+    lights: &LightSampler,
     (id, medium): (u32, &Medium),
     x: Vec3,
     d: Vec3,
-    light: &Connection,
+    light: Option<&Connection>,
+    ratio: f32,
     s: &mut Sampler,
 ) -> Rgb {
     let sigma_s = medium.sigma_s(x);
@@ -135,25 +177,28 @@ fn in_scattered(
     }
     let phase = medium.phase();
     let mut l = Rgb::ZERO;
-    let chosen = &scene.lights[light.li];
-    let ls = match light.point {
-        Some(y) => chosen.li_from(x, y),
-        None => chosen.sample_li(x, s),
-    };
-    if let Some(ls) = ls {
-        let f = phase.eval(d, ls.wi);
-        if f > 0.0 && ls.value.max_element() > 0.0 {
-            let w = ls.pdf.map_or(1.0, |p| power_heuristic(light.p_light * p, f));
-            let tr = shadow(scene, x, ls.wi, ls.dist, Some(id), s);
-            l += ls.value * tr * (f * w / light.p_light);
+    if let Some(light) = light {
+        let chosen = &scene.lights[light.li];
+        let ls = match light.point {
+            Some(y) => chosen.li_from(x, y),
+            None => chosen.sample_li(x, s),
+        };
+        if let Some(ls) = ls {
+            let f = phase.eval(d, ls.wi);
+            if f > 0.0 && ls.value.max_element() > 0.0 {
+                let w = ls.pdf.map_or(1.0, |p| power_heuristic(light.p_light * p, f));
+                let tr = shadow(scene, x, ls.wi, ls.dist, Some(id), s);
+                l += ls.value * tr * (f * w / light.p_light);
+            }
         }
     }
     // Phase sampling: an emitter the sampled direction reaches, weighed against light sampling
     // (only area lights can be reached).
-    if !light.lights.has_area_lights() {
-        return sigma_s * l;
+    if !lights.has_area_lights() {
+        return sigma_s * (l * ratio);
     }
     let wi = phase.sample(d, s.next_2d()).d_out;
     let pdf = phase.eval(d, wi);
-    sigma_s * (l + emitted(scene, light.lights, x, wi, pdf, Rgb::ONE, Some(id), s))
+    let from = Receiver::medium(x);
+    sigma_s * (l * ratio + emitted(scene, lights, &from, wi, pdf, Rgb::ONE, Some(id), s))
 }

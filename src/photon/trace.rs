@@ -110,7 +110,7 @@ fn trace_path(
     out: &mut Photons,
 ) {
     let mut s = Sampler::new(pass.seed, Purpose::Photon, pass.iteration, index);
-    let (li, p_light) = lights.pick(s.next_f32());
+    let (li, p_light) = lights.pick_emission(s.next_f32());
     let e = scene.lights[li].sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
     let beta: Rgb = e.beta / p_light;
     if beta.max_element() <= 0.0 {

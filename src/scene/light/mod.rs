@@ -25,8 +25,14 @@
 //! irradiance = [3, 3, 3]
 //! ```
 
+mod sampler;
+mod tree;
+
+pub(crate) use sampler::LightSampler;
+pub(crate) use tree::{Receiver, Segment};
+
 use crate::math::{
-    Frame, Rgb, luminance, sample_concentric_disc, sample_cosine_hemisphere, sample_triangle,
+    Frame, Rgb, sample_concentric_disc, sample_cosine_hemisphere, sample_triangle,
     sample_uniform_cone, sample_uniform_sphere, smoothstep,
 };
 use crate::rng::Sampler;
@@ -299,76 +305,6 @@ impl Light {
     }
 }
 
-/// Chooses lights in proportion to their power, and knows which shapes are area lights.
-pub struct LightSampler {
-    cdf: Vec<f32>,
-    total: f32,
-    /// For each shape, the index of its area light and that light's area, if it emits.
-    area_lights: Vec<Option<(usize, f32)>>,
-}
-
-impl LightSampler {
-    /// The distribution over `lights` (mean-channel power), for a scene of `shapes` shapes.
-    pub fn new(lights: &[Light], shapes: usize) -> Self {
-        let mut total = 0.0;
-        let cdf = lights
-            .iter()
-            .map(|l| {
-                total += luminance(l.power());
-                total
-            })
-            .collect();
-        let mut area_lights = vec![None; shapes];
-        for (i, l) in lights.iter().enumerate() {
-            if let Light::Area { shape, emitter, .. } = l {
-                area_lights[*shape as usize] = Some((i, emitter.area()));
-            }
-        }
-        Self { cdf, total, area_lights }
-    }
-
-    /// The area light of shape `shape` and its area, if the shape emits.
-    pub fn area_light(&self, shape: u32) -> Option<(usize, f32)> {
-        self.area_lights.get(shape as usize).copied().flatten()
-    }
-
-    /// True if some shape is an area light (which BSDF or phase sampling can reach).
-    pub fn has_area_lights(&self) -> bool {
-        self.area_lights.iter().any(Option::is_some)
-    }
-
-    /// True if no light emits anything.
-    pub fn is_empty(&self) -> bool {
-        self.total <= 0.0
-    }
-
-    /// The probability that [`Self::pick`] returns light `i`.
-    pub fn prob(&self, i: usize) -> f32 {
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        (self.cdf[i] - lo) / self.total
-    }
-
-    /// A light index and its probability.
-    pub fn pick(&self, u: f32) -> (usize, f32) {
-        let target = u * self.total;
-        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
-        (i, self.prob(i))
-    }
-
-    /// The density with which next-event estimation from `from` (choosing a light with
-    /// [`Self::pick`], then [`Light::sample_li`]) picks the direction towards the point `to` of
-    /// the emitting shape `shape`, whose surface there has the cosine `cos_l` with that direction:
-    /// P(light) · d² / (|cos_l| · area), per solid angle. Zero if the shape does not emit.
-    pub fn pdf_li(&self, shape: u32, from: Vec3, to: Vec3, cos_l: f32) -> f32 {
-        let Some((li, area)) = self.area_light(shape) else { return 0.0 };
-        let cos_l = cos_l.abs();
-        if cos_l <= 0.0 || area <= 0.0 {
-            return 0.0;
-        }
-        self.prob(li) * (to - from).length_squared() / (cos_l * area)
-    }
-}
-
 /// ∫ smoothstep(cos_max, cos_start, cos θ) dω over the sphere: the full cone up to the falloff
 /// start, plus half of the falloff band (smoothstep integrates to half its interval).
 pub fn spot_solid_angle(cos_max: f32, cos_start: f32) -> f32 {
@@ -378,12 +314,12 @@ pub fn spot_solid_angle(cos_max: f32, cos_start: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::{ChiSquare, Domain, Sample, assert_agrees, chi_square_p};
+    use crate::testing::{ChiSquare, Domain, Sample, assert_agrees};
     use glam::DVec2;
     use std::f64::consts::PI as PI64;
 
     /// A 2 × 1 rectangle in the xy-plane facing +z, centred at `c`, as two triangles.
-    fn rectangle(c: Vec3) -> Emitter {
+    pub(super) fn rectangle(c: Vec3) -> Emitter {
         let [a, b, d, e] = [(-1.0, -0.5), (1.0, -0.5), (1.0, 0.5), (-1.0, 0.5)]
             .map(|(x, y)| c + Vec3::new(x, y, 0.0));
         Emitter::Triangles { triangles: vec![[a, b, d], [a, d, e]], cdf: vec![1.0, 2.0] }
@@ -520,8 +456,8 @@ mod tests {
                 // shortened by 10⁻⁴), with the one light chosen with probability 1.
                 let to = at + ls.wi * (ls.dist / (1.0 - 1e-4));
                 let sampler = LightSampler::new(std::slice::from_ref(&rect), 1);
-                let cos_l = ls.wi.z;
-                assert!((sampler.pdf_li(0, at, to, cos_l) / pdf - 1.0).abs() < 1e-3);
+                let (cos_l, from) = (ls.wi.z, Receiver::medium(at));
+                assert!((sampler.pdf_li(0, &from, to, cos_l) / pdf - 1.0).abs() < 1e-3);
                 assert!((ls.value.x as f64 - 2.0 / pdf as f64).abs() < 1e-3 * ls.value.x as f64);
                 Some(Sample::Direction(ls.wi))
             },
@@ -582,43 +518,6 @@ mod tests {
             (ls.wi, ls.dist, ls.value, ls.pdf),
             (Vec3::Y, f32::INFINITY, Rgb::splat(3.0), None)
         );
-    }
-
-    /// Lights are chosen in proportion to their mean-channel power (chi-square), with the
-    /// probability `pick` reports; `pdf_li` is that probability times d²/(|cos| A).
-    #[test]
-    fn lights_are_chosen_in_proportion_to_power() {
-        let powers = [1.0f32, 3.0, 6.0, 0.5];
-        let mut lights: Vec<Light> = powers
-            .iter()
-            .enumerate()
-            .map(|(i, &w)| Light::Point {
-                position: Vec3::new(i as f32, 0.0, 0.0),
-                intensity: Rgb::splat(w / (4.0 * PI)),
-            })
-            .collect();
-        lights.push(Light::Area {
-            shape: 1,
-            radiance: Rgb::splat(1.0 / PI),
-            emitter: rectangle(Vec3::ZERO),
-        });
-        let sampler = LightSampler::new(&lights, 2);
-        let powers = [1.0f32, 3.0, 6.0, 0.5, 2.0];
-        let total: f32 = powers.iter().sum();
-        let mut counts = vec![0u64; powers.len()];
-        let mut s = Sampler::new(15, crate::rng::Purpose::Other, 0, 0);
-        for _ in 0..200_000 {
-            let (i, p) = sampler.pick(s.next_f32());
-            assert!((p - powers[i] / total).abs() < 1e-6);
-            counts[i] += 1;
-        }
-        let expected: Vec<f64> = powers.iter().map(|&w| (w / total) as f64).collect();
-        let p = chi_square_p(&counts, &expected);
-        assert!(p > crate::testing::SIGNIFICANCE, "p = {p}");
-        assert_eq!(sampler.area_light(1), Some((4, 2.0)));
-        assert_eq!(sampler.area_light(0), None);
-        let pdf = sampler.pdf_li(1, Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO, 0.5);
-        assert!((pdf - (2.0 / total) * 4.0 / (0.5 * 2.0)).abs() < 1e-5);
     }
 
     #[test]
