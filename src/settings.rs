@@ -388,9 +388,10 @@ render_settings! {
     kernel: Kernel = Kernel::Epanechnikov, any;
 
     /// Most scattering events along a whole path from the light to the camera — medium
-    /// collisions and surface scatterings, counted as pbrt-v4, Mitsuba 3 and Tungsten count them
-    /// (crossing a pass-through interface is not one): every mode renders the same image under
-    /// the same limit. 1 is single scattering.
+    /// collisions, diffuse and specular surface events (crossing a pass-through interface is not
+    /// one): every mode renders the same image under the same limit. 1 is single scattering.
+    /// pbrt-v4's maxdepth B, Mitsuba 3 volpath's max_depth B + 1, Tungsten's max_bounces B + 1 +
+    /// the pass-through surfaces crossed (docs/scene-format.md).
     [long, value_name = "B"]
     max_bounces: u32 = 64, bounce_limit;
 
