@@ -16,11 +16,16 @@
 //!   the medium where the light is far or spread out (directional lights, large area lights,
 //!   dense media).
 //!
-//! One light is chosen by power and one point of it sampled (uniformly by area for area lights);
-//! both distances connect to that point, so for a fixed point the two strategies sample the same
-//! integrand and their balance-heuristic weights sum to one. Directional lights have no point:
-//! only the transmittance strategy applies. Shadow rays pass through pass-through interfaces,
-//! with exact transmittance in homogeneous media and ratio tracking in grids.
+//! The equiangular strategy chooses a light with a position for the whole segment
+//! ([`LightSampler::pick_along`]), a point of it, then the distance; the transmittance strategy
+//! draws the distance first and chooses the light at that point, as next-event estimation does
+//! there ([`LightSampler::pick`]). The balance heuristic runs over (distance, light, point), so
+//! the combination is unbiased whatever the segment's choice is (the transmittance strategy
+//! alone reaches every light that can contribute); with one light in the scene both choose it and
+//! share its point, as before lights were chosen by receiver. Directional lights have no point:
+//! only the transmittance strategy reaches them. Shadow rays pass through pass-through
+//! interfaces, with exact transmittance in homogeneous media and ratio tracking in grids
+//! (docs/theory.md, "Single scattering along a segment").
 
 use super::direct::{emitted, power_heuristic, shadow};
 use crate::estimate::volume::EyeSegment;
