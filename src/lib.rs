@@ -115,8 +115,10 @@ pub use glam;
 pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};
 pub use partial::Partial;
+pub use photon::guide::MIN_GAIN as PILOT_MIN_GAIN;
 pub use render::{
-    MIN_RADIUS_FRACTION, PILOT_PATHS, Start, memory_estimate, render, render_partial,
+    MIN_RADIUS_FRACTION, PILOT_PATHS, PhotonUsage, Start, memory_estimate, photon_usage, render,
+    render_partial,
 };
 pub use scene::{Scene, SceneBuilder};
 pub use settings::{RenderOptions, RenderSettings};

@@ -54,6 +54,9 @@ impl Status<'_> {
 /// Seconds one iteration spent in each step (zero for steps the method does not have).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StepTimes {
+    /// The photon-guiding pilot, which runs once, before the first iteration's photon pass (zero
+    /// in every other iteration).
+    pub pilot: f64,
     /// Tracing light paths (the photon pass without the map builds).
     pub photon_trace: f64,
     /// Building the surface photon map.
@@ -70,7 +73,7 @@ pub struct StepTimes {
 impl StepTimes {
     /// The whole iteration.
     pub fn total(&self) -> f64 {
-        self.photon_trace + self.surface_map + self.volume_map + self.camera
+        self.pilot + self.photon_trace + self.surface_map + self.volume_map + self.camera
     }
 }
 

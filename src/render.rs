@@ -6,6 +6,7 @@
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::integrator::Method;
+pub use crate::integrator::ppm::PhotonUsage;
 use crate::output::{Image, RenderInfo};
 use crate::partial::Partial;
 use crate::progress::{Progress, Status};
@@ -264,6 +265,21 @@ pub fn memory_estimate(scene: &Scene, settings: &RenderSettings) -> u64 {
         + volume as f64 * std::mem::size_of::<crate::photon::VolumePhoton>() as f64)
         / pilot.photons as f64;
     image + (2.0 * per_path * settings.photons as f64) as u64
+}
+
+/// What the photons of iteration `iteration` of a render with `settings` are used for: how many
+/// were stored and how many its camera pass gathered at least once, and with photon guiding what
+/// the pilot found per light (`haze bench` reports it). `None` for methods without photons (the
+/// path tracer, the original PPM) or if `stop` was raised.
+pub fn photon_usage(
+    scene: &Scene,
+    settings: &RenderSettings,
+    iteration: u64,
+    stop: &AtomicBool,
+) -> Result<Option<PhotonUsage>> {
+    settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
+    let mut method = Method::new(scene, settings)?;
+    Ok(method.photon_usage(scene, iteration.max(1), stop))
 }
 
 /// Physical memory in bytes (Linux: /proc/meminfo), if known.

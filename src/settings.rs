@@ -33,6 +33,7 @@
 //! integrator = "hybrid"     # "hybrid" (light sampling + photons), "photons" or "path"
 //! progression = "probabilistic"  # or "original": Hachisuka 2008 per-pixel statistics (surfaces only)
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
+//! photon_guiding = "visibility"  # emit photons towards what the camera sees, or "off"
 //! ```
 
 pub use crate::estimate::kernel::Kernel;
@@ -146,6 +147,19 @@ choices! {
         /// The point estimate (Jensen & Christensen 1998): a 3-D kernel density estimate at a
         /// collision sampled along the eye segment.
         Point = "point",
+    }
+}
+
+choices! {
+    /// Where the photon pass emits its photons.
+    pub enum PhotonGuiding ("photon guiding") {
+        /// Towards the light paths the camera sees (the default): a pilot pass at the start of
+        /// a render finds which emitted photons reach what the camera gathers, and every
+        /// iteration then emits by that, with a tenth of its photons still spread as without
+        /// guiding (docs/theory.md, "Photons where the camera looks").
+        Visibility = "visibility",
+        /// Photons leave every light in proportion to its power, uniformly over its emission.
+        Off = "off",
     }
 }
 
@@ -437,6 +451,11 @@ render_settings! {
     /// cost of the camera pass, without more photons or photon queries.
     [long, value_name = "N"]
     direct_samples: u32 = 1, direct_count;
+
+    /// Where photons are emitted: `visibility` (towards what the camera sees, from a pilot pass)
+    /// or `off` (by power, uniformly).
+    [long, value_name = "KIND"]
+    photon_guiding: PhotonGuiding = PhotonGuiding::Visibility, any;
 
     /// Thin volume photons in thinning cells (cubes holding ~4 photons on average) holding more
     /// than this many: each is kept with probability budget/count and its power divided by it —

@@ -7,7 +7,9 @@
 
 use super::kernel::Kernel;
 use crate::math::Rgb;
+use crate::math::luminance;
 use crate::photon::map::PhotonGrid;
+use crate::photon::marks::Tally;
 use crate::photon::{BounceRange, Photon};
 use glam::Vec3;
 
@@ -28,21 +30,30 @@ pub struct Gather {
 
 /// Reflected radiance at `p` (normal `n`, on the viewer's side) of a diffuse surface with BRDF
 /// value `f` (albedo / π), from the photons in `map`.
-/// Only photons whose light paths had a number of events in `bounces` take part.
-pub fn surface_radiance(
+/// Only photons whose light paths had a number of events in `bounces` take part. With a tally
+/// and the factor `(tally, scale)` the pixel's estimate is multiplied by afterwards (the eye
+/// path's throughput, in luminance), each photon's contribution is added to the tally.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn surface_radiance(
     map: &PhotonGrid<Photon>,
     p: Vec3,
     n: Vec3,
     f: Rgb,
     g: &Gather,
     bounces: BounceRange,
+    tally: Option<(&Tally, f32)>,
 ) -> Rgb {
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;
-    map.query(p, g.radius, |ph, d2| {
+    let norm = inv_r2 * g.inv_paths;
+    map.query_slots(p, g.radius, |ph, slot, d2| {
         if ph.n.dot(n) > NORMAL_COS && bounces.contains(ph.bounces) {
-            sum += ph.beta * g.kernel.eval(d2 * inv_r2, 2);
+            let term = ph.beta * g.kernel.eval(d2 * inv_r2, 2);
+            sum += term;
+            if let Some((t, scale)) = tally {
+                t.add(slot, scale * norm * luminance(f * term));
+            }
         }
     });
-    f * sum * (inv_r2 * g.inv_paths)
+    f * sum * norm
 }

@@ -15,9 +15,11 @@
 
 use super::surface::Gather;
 use crate::math::Rgb;
+use crate::math::luminance;
 use crate::medium::{Medium, SegmentTransmittance};
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
+use crate::photon::marks::Tally;
 use crate::photon::{BounceRange, VolumePhoton};
 use glam::Vec3;
 
@@ -33,8 +35,11 @@ pub struct EyeSegment {
 }
 
 /// The beam radiance estimate along o + tω, 0 < t < `t_max`, in medium `id`, with the segment's
-/// transmittance `tr`. The photons in `map` carry β·σ_s(x_p) (see `BeamMap::build`).
-pub fn beam_radiance(
+/// transmittance `tr`. The photons in `map` carry β·σ_s(x_p) (see `BeamMap::build`). With a
+/// tally and the factor the estimate is multiplied by afterwards, each photon's contribution is
+/// added to the tally.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn beam_radiance(
     map: &BeamMap,
     medium: &Medium,
     id: u32,
@@ -42,23 +47,32 @@ pub fn beam_radiance(
     tr: &SegmentTransmittance,
     g: &Gather,
     bounces: BounceRange,
+    tally: Option<(&Tally, f32)>,
 ) -> Rgb {
     let phase = medium.phase();
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;
     let EyeSegment { o, w, t_max } = *segment;
-    map.query(o, w, t_max, |ph, t, d2| {
+    let norm = inv_r2 * g.inv_paths;
+    map.query_slots(o, w, t_max, |ph, slot, t, d2| {
         if ph.medium as u32 == id && bounces.contains(ph.bounces) {
             let k = g.kernel.eval(d2 * inv_r2, 2);
             // The beam map stores β·σ_s(x_p) as the photon's power.
-            sum += ph.beta * tr.at(t) * (phase.eval(ph.d, -w) * k);
+            let term = ph.beta * tr.at(t) * (phase.eval(ph.d, -w) * k);
+            sum += term;
+            if let Some((tally, scale)) = tally {
+                tally.add(slot, scale * norm * luminance(term));
+            }
         }
     });
-    sum * (inv_r2 * g.inv_paths)
+    sum * norm
 }
 
-/// The point estimate of in-scattered radiance at `x` towards −`w`, in medium `id`.
-pub fn point_radiance(
+/// The point estimate of in-scattered radiance at `x` towards −`w`, in medium `id`. With a tally
+/// and the factor the estimate is multiplied by afterwards, each photon's contribution is added
+/// to the tally.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn point_radiance(
     grid: &PhotonGrid<VolumePhoton>,
     medium: &Medium,
     id: u32,
@@ -66,14 +80,21 @@ pub fn point_radiance(
     w: Vec3,
     g: &Gather,
     bounces: BounceRange,
+    tally: Option<(&Tally, f32)>,
 ) -> Rgb {
     let phase = medium.phase();
     let inv_r2 = 1.0 / (g.radius * g.radius);
     let mut sum = Rgb::ZERO;
-    grid.query(x, g.radius, |ph, d2| {
+    let sigma_s = medium.sigma_s(x);
+    let norm = inv_r2 / g.radius * g.inv_paths;
+    grid.query_slots(x, g.radius, |ph, slot, d2| {
         if ph.medium as u32 == id && bounces.contains(ph.bounces) {
-            sum += ph.beta * (phase.eval(ph.d, -w) * g.kernel.eval(d2 * inv_r2, 3));
+            let term = ph.beta * (phase.eval(ph.d, -w) * g.kernel.eval(d2 * inv_r2, 3));
+            sum += term;
+            if let Some((tally, scale)) = tally {
+                tally.add(slot, scale * norm * luminance(sigma_s * term));
+            }
         }
     });
-    medium.sigma_s(x) * sum * (inv_r2 / g.radius * g.inv_paths)
+    sigma_s * sum * norm
 }

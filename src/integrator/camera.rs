@@ -13,10 +13,11 @@ use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::surface::{Gather, surface_radiance};
 use crate::estimate::volume::{EyeSegment, beam_radiance, point_radiance};
-use crate::math::Rgb;
+use crate::math::{Rgb, luminance};
 use crate::medium::{Medium, SegmentTransmittance};
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
+use crate::photon::marks::GatherMarks;
 use crate::photon::{BounceRange, Photon, VolumePhoton};
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
@@ -35,6 +36,8 @@ pub(crate) struct Maps<'a> {
     pub volume_beams: &'a BeamMap,
     /// The lights, for next-event estimation (the hybrid integrator).
     pub lights: &'a LightSampler,
+    /// Where to record the photons the pass gathers (the guiding pilot, `haze bench`).
+    pub marks: Option<&'a GatherMarks>,
 }
 
 /// Settings of one camera pass.
@@ -99,7 +102,8 @@ fn timed<T>(f: impl FnOnce() -> T) -> T {
 /// Radiance along one eye path for pixel (x, y).
 fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32) -> Rgb {
     trace_eye(scene, maps, pass, x, y, |p, n, f, beta, bounces| {
-        beta * surface_radiance(maps.surface, p, n, f, &pass.surface, bounces)
+        let tally = maps.marks.map(|m| (&m.surface, luminance(beta)));
+        beta * surface_radiance(maps.surface, p, n, f, &pass.surface, bounces, tally)
     })
 }
 
@@ -174,8 +178,9 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEy
                 let segment = EyeSegment { o, w: d, t_max };
                 let (beams, volume, bounces) =
                     (self.maps.volume_beams, &self.pass.volume, self.bounces(path));
+                let tally = self.maps.marks.map(|t| (&t.volume, luminance(path.beta)));
                 path.l += path.beta
-                    * timed(|| beam_radiance(beams, m, id, &segment, &tr, volume, bounces));
+                    * timed(|| beam_radiance(beams, m, id, &segment, &tr, volume, bounces, tally));
                 path.beta *= tr.at(t_max);
                 Next::Continue
             }
@@ -193,8 +198,9 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEy
                 let x = o + d * flight.t;
                 let (points, volume, bounces) =
                     (self.maps.volume_points, &self.pass.volume, self.bounces(path));
-                path.l +=
-                    path.beta * timed(|| point_radiance(points, m, id, x, d, volume, bounces));
+                let tally = self.maps.marks.map(|t| (&t.volume, luminance(path.beta)));
+                path.l += path.beta
+                    * timed(|| point_radiance(points, m, id, x, d, volume, bounces, tally));
                 Next::Stop
             }
         }

@@ -74,6 +74,19 @@ impl Method {
         }
     }
 
+    /// Iteration `i` instrumented (photon mapping only): what its photons were used for.
+    pub(crate) fn photon_usage(
+        &mut self,
+        scene: &Scene,
+        i: u64,
+        stop: &AtomicBool,
+    ) -> Option<ppm::PhotonUsage> {
+        match self {
+            Method::PhotonMapping(m) => m.photon_usage(scene, i, stop),
+            Method::Original(_) | Method::Path(_) => None,
+        }
+    }
+
     /// The state the method carries from one iteration to the next, for partial renders (only
     /// the original PPM has one: its per-pixel statistics).
     pub(crate) fn save_state(&self) -> Option<Vec<u8>> {

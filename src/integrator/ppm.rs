@@ -10,13 +10,15 @@ use crate::estimate::radius::radius;
 use crate::estimate::surface::Gather;
 use crate::math::Rgb;
 use crate::photon::beam::{BeamMap, Thinning};
+use crate::photon::guide::{EmissionGuide, LightUse, PilotPath};
 use crate::photon::map::PhotonGrid;
+use crate::photon::marks::{GatherMarks, Tally};
 use crate::photon::trace::{PhotonPass, Photons, trace_photons};
 use crate::photon::{Photon, VolumePhoton};
 use crate::progress::StepTimes;
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
-use crate::settings::{Integrator, RenderSettings, VolumeEstimate};
+use crate::settings::{Integrator, PhotonGuiding, Progression, RenderSettings, VolumeEstimate};
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
 
@@ -42,6 +44,13 @@ pub(crate) struct PhotonMapper {
     volume_alpha: f64,
     volume_dimension: u32,
     lights: LightSampler,
+    /// Guide photon emission by a pilot pass (docs/theory.md); whether the pilot ran, the guide
+    /// it learnt (none if guiding could gain little), and what it found per light.
+    guiding: bool,
+    pilot_done: bool,
+    guide: Option<EmissionGuide>,
+    usage: Vec<LightUse>,
+    gain: f64,
     photons: Photons,
     surface_map: PhotonGrid<Photon>,
     volume_points: PhotonGrid<VolumePhoton>,
@@ -66,6 +75,13 @@ impl PhotonMapper {
             volume_alpha: settings.volume_alpha,
             volume_dimension: settings.volume_dimension,
             lights: LightSampler::new(&scene.lights, scene.shapes.len()),
+            // The original PPM, a comparison mode, stays the classic method.
+            guiding: settings.photon_guiding == PhotonGuiding::Visibility
+                && settings.progression == Progression::Probabilistic,
+            pilot_done: false,
+            guide: None,
+            usage: Vec::new(),
+            gain: 1.0,
             photons: Photons::default(),
             surface_map: PhotonGrid::default(),
             volume_points: PhotonGrid::default(),
@@ -108,6 +124,11 @@ impl PhotonMapper {
         let (r, r_vol) = self.radii(i);
         let mut times = StepTimes::default();
         let clock = Instant::now();
+        if !self.learn_guide(scene, stop) {
+            return None;
+        }
+        times.pilot = lap(clock);
+        let clock = Instant::now();
         if !self.trace(scene, i, stop) {
             return None;
         }
@@ -131,14 +152,141 @@ impl PhotonMapper {
     /// Step 1, the photon pass of iteration `i`. Returns `false` if `stop` was raised before it
     /// finished (the photons are then incomplete).
     pub(crate) fn trace(&mut self, scene: &Scene, i: u64, stop: &AtomicBool) -> bool {
-        let pass = PhotonPass {
+        let pass = self.photon_pass(i, self.paths, false);
+        trace_photons(scene, &self.lights, self.guide.as_ref(), &pass, stop, &mut self.photons)
+    }
+
+    fn photon_pass(&self, iteration: u64, paths: u64, record: bool) -> PhotonPass {
+        PhotonPass {
             seed: self.seed,
-            iteration: i,
-            paths: self.paths,
+            iteration,
+            first_path: 0,
+            paths,
             max_bounces: self.max_bounces,
             skip_direct: self.hybrid,
+            record,
+        }
+    }
+
+    /// The guiding pilot (docs/theory.md, "Photons where the camera looks"), once per render:
+    /// unguided light paths of "iteration 0", maps at iteration 1's radii, and a camera pass that
+    /// marks the photons it gathers; the guide follows the light paths they belong to. Rounds of
+    /// pilot paths continue (up to [`PILOT_ROUNDS`]) while a light that wastes photons has too
+    /// few visible paths to learn from; if the guide's estimated gain is small, photons are
+    /// emitted unguided. Returns `false` if `stop` was raised first.
+    fn learn_guide(&mut self, scene: &Scene, stop: &AtomicBool) -> bool {
+        if !self.guiding || self.pilot_done {
+            return true;
+        }
+        let per_round = self.paths.clamp(PILOT_PATHS.0, PILOT_PATHS.1);
+        let mut paths: Vec<PilotPath> = Vec::new();
+        for round in 0..PILOT_ROUNDS {
+            let pass = PhotonPass {
+                first_path: round * per_round,
+                ..self.photon_pass(0, per_round, true)
+            };
+            if !trace_photons(scene, &self.lights, None, &pass, stop, &mut self.photons) {
+                return false;
+            }
+            let Some(marks) = self.gather_marks(scene, 0, stop) else { return false };
+            paths.extend(self.pilot_paths(&marks, pass.first_path));
+            let usage = light_use(self.lights.len(), &paths);
+            let wanting = |u: &LightUse| u.visible < PILOT_VISIBLE && 2 * u.visible < u.paths;
+            if !usage.iter().any(wanting) {
+                break;
+            }
+        }
+        (self.guide, self.usage, self.gain) = EmissionGuide::from_pilot(&self.lights, &paths);
+        self.pilot_done = true;
+        true
+    }
+
+    /// The pilot paths of the photons in hand (the first numbered `first`), each with the sum of
+    /// its photons' tallies in `marks`.
+    fn pilot_paths(&self, marks: &GatherMarks, first: u64) -> Vec<PilotPath> {
+        let photons = &self.photons;
+        let mut value = vec![0.0f32; photons.paths.len()];
+        let local = |path: u32| (path as u64 - first) as usize;
+        for slot in 0..marks.surface.len() {
+            let v = marks.surface.get(slot);
+            if v > 0.0 {
+                value[local(photons.surface_path[self.surface_map.origin(slot)])] += v;
+            }
+        }
+        for slot in 0..marks.volume.len() {
+            let v = marks.volume.get(slot);
+            if v > 0.0 {
+                let photon = match self.estimate {
+                    VolumeEstimate::Beam => self.volume_beams.origin(slot),
+                    VolumeEstimate::Point => self.volume_points.origin(slot),
+                };
+                value[local(photons.volume_path[photon])] += v;
+            }
+        }
+        photons
+            .paths
+            .iter()
+            .zip(&value)
+            .map(|(&(light, u), &value)| PilotPath { light, u, value })
+            .collect()
+    }
+
+    /// Builds the maps of the photons in hand at iteration 1's radii (`iteration` keys their
+    /// thinning), runs a camera pass of eye paths of `iteration` over them, and returns the marks
+    /// of the photons it gathered; `None` if `stop` was raised first.
+    fn gather_marks(
+        &mut self,
+        scene: &Scene,
+        iteration: u64,
+        stop: &AtomicBool,
+    ) -> Option<GatherMarks> {
+        let (r, r_vol) = self.radii(iteration.max(1));
+        self.set_tracking(true);
+        self.build_surface_map(r);
+        self.build_volume_map(scene, iteration, r_vol);
+        self.set_tracking(false);
+        let volume = match self.estimate {
+            VolumeEstimate::Beam => self.volume_beams.len(),
+            VolumeEstimate::Point => self.volume_points.len(),
         };
-        trace_photons(scene, &self.lights, &pass, stop, &mut self.photons)
+        let marks =
+            GatherMarks { surface: Tally::new(self.surface_map.len()), volume: Tally::new(volume) };
+        let pass = self.camera_pass(iteration, r, r_vol);
+        let maps = Maps { marks: Some(&marks), ..self.maps() };
+        let [w, h] = scene.camera.resolution;
+        let mut image = vec![Rgb::ZERO; w as usize * h as usize];
+        let nonfinite = AtomicU64::new(0);
+        render_pass(scene, &maps, &pass, stop, &nonfinite, &mut image).then_some(marks)
+    }
+
+    fn set_tracking(&mut self, on: bool) {
+        self.surface_map.set_tracking(on);
+        self.volume_points.set_tracking(on);
+        self.volume_beams.set_tracking(on);
+    }
+
+    /// Iteration `i` instrumented: its photons (guided as in a render, the pilot run first if
+    /// needed) and the numbers of surface and volume photons stored and gathered by its camera
+    /// pass; `None` if `stop` was raised first.
+    pub(crate) fn photon_usage(
+        &mut self,
+        scene: &Scene,
+        i: u64,
+        stop: &AtomicBool,
+    ) -> Option<PhotonUsage> {
+        if !self.learn_guide(scene, stop) || !self.trace(scene, i, stop) {
+            return None;
+        }
+        let marks = self.gather_marks(scene, i, stop)?;
+        let per_light = &self.usage;
+        Some(PhotonUsage {
+            guided: self.guide.is_some(),
+            gain: self.gain,
+            stored: [self.photons.surface.len() as u64, self.photons.volume.len() as u64],
+            gathered: [marks.surface.count() as u64, marks.volume.count() as u64],
+            kept: [marks.surface.len() as u64, marks.volume.len() as u64],
+            pilot: per_light.iter().map(|u| (u.paths, u.visible, u.cells)).collect(),
+        })
     }
 
     /// Step 2a, the surface photon map for queries of radius up to `r`.
@@ -174,6 +322,7 @@ impl PhotonMapper {
             volume_points: &self.volume_points,
             volume_beams: &self.volume_beams,
             lights: &self.lights,
+            marks: None,
         }
     }
 
@@ -195,6 +344,46 @@ impl PhotonMapper {
             direct_samples: self.direct_samples,
         }
     }
+}
+
+/// Light paths per round of the guiding pilot: the paths of an iteration, within these bounds …
+const PILOT_PATHS: (u64, u64) = (1 << 14, 1 << 21);
+
+/// … in rounds, until every light that wastes photons has this many visible paths …
+const PILOT_VISIBLE: u64 = 512;
+
+/// … or this many rounds have run.
+const PILOT_ROUNDS: u64 = 4;
+
+/// Pilot paths and visible ones, per light.
+fn light_use(lights: usize, paths: &[PilotPath]) -> Vec<LightUse> {
+    let mut usage = vec![LightUse::default(); lights];
+    for p in paths {
+        let u = &mut usage[p.light as usize];
+        u.paths += 1;
+        u.visible += (p.value > 0.0) as u64;
+    }
+    usage
+}
+
+/// What the photons of one iteration were used for ([`PhotonMapper::photon_usage`]).
+#[derive(Clone, Debug, Default)]
+pub struct PhotonUsage {
+    /// Surface and volume photons stored by the photon pass …
+    pub stored: [u64; 2],
+    /// … those the thinning of dense cells kept in the maps (all, without thinning) …
+    pub kept: [u64; 2],
+    /// … and those the camera pass gathered at least once.
+    pub gathered: [u64; 2],
+    /// True if the photons were emitted by a guide (guiding on, and the pilot found enough to
+    /// gain).
+    pub guided: bool,
+    /// The pilot's estimate of the factor by which guiding lowers the second moment of a light
+    /// path's contribution (1 without a pilot).
+    pub gain: f64,
+    /// With guiding, per light: the pilot's light paths, those visible, and the cells of its
+    /// guiding table.
+    pub pilot: Vec<(u64, u64, usize)>,
 }
 
 /// Seconds since `clock`.

@@ -139,6 +139,11 @@ pub struct BeamMap {
     count: Vec<u32>,
     spans: Vec<Span>,
     spare: Vec<VolumePhoton>,
+    /// With tracking on: for each photon kept by the thinning, its index in the built list …
+    kept: Vec<u32>,
+    /// … and for each slot, the index in the built list of the photon it holds.
+    origin: Vec<u32>,
+    track: bool,
 }
 
 impl BeamMap {
@@ -253,11 +258,15 @@ impl BeamMap {
         weight: impl Fn(&VolumePhoton) -> crate::math::Rgb + Sync,
     ) {
         self.spare.clear();
+        self.kept.clear();
         let Some(t) = thinning else {
             photons
                 .par_iter()
                 .map(|p| VolumePhoton { beta: weight(p), ..*p })
                 .collect_into_vec(&mut self.spare);
+            if self.track {
+                self.kept.extend(0..photons.len() as u32);
+            }
             return;
         };
         // Photons per thinning cell: cells of the size the grid has when it serves every query
@@ -275,18 +284,27 @@ impl BeamMap {
             self.count[k as usize] += 1;
         }
         let count = &self.count;
+        let kept = |i: usize, k: u32| {
+            let keep = (t.budget as f64 / count[k as usize] as f64).min(1.0);
+            if keep < 1.0 {
+                let mut u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64);
+                if u.next_f32() as f64 >= keep {
+                    return None;
+                }
+            }
+            Some(keep)
+        };
         self.spare.par_extend(photons.par_iter().zip(&self.keys).enumerate().filter_map(
             |(i, (p, &k))| {
-                let keep = (t.budget as f64 / count[k as usize] as f64).min(1.0);
-                if keep < 1.0 {
-                    let mut u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64);
-                    if u.next_f32() as f64 >= keep {
-                        return None;
-                    }
-                }
+                let keep = kept(i, k)?;
                 Some(VolumePhoton { beta: weight(p) * (1.0 / keep) as f32, ..*p })
             },
         ));
+        if self.track {
+            let which =
+                self.keys.par_iter().enumerate().filter_map(|(i, &k)| kept(i, k).map(|_| i as u32));
+            self.kept.par_extend(which);
+        }
     }
 
     /// Moves the photons from `spare` into `photons`, ordered by the view bin their centre
@@ -314,28 +332,62 @@ impl BeamMap {
             start[k as usize] += 1;
         }
         source.par_iter().map(|&i| kept[i as usize]).collect_into_vec(&mut self.photons);
+        self.origin.clear();
+        if self.track {
+            let built = &self.kept;
+            self.origin.par_extend(source.par_iter().map(|&i| built[i as usize]));
+        }
         self.grid.start = start;
         self.keys = keys;
         self.count = source;
     }
 
+    /// Keep, from the next build on, which photon of the built list each slot holds
+    /// ([`Self::origin`]); off by default.
+    pub fn set_tracking(&mut self, on: bool) {
+        self.track = on;
+    }
+
+    /// The photons held (slots 0..len): those the thinning kept.
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    /// The index in the built list of the photon in `slot` (with tracking on).
+    pub fn origin(&self, slot: usize) -> usize {
+        self.origin[slot] as usize
+    }
+
     /// Calls `f(photon, t_p, d²)` for every photon whose projection onto the ray o + t d (d unit)
     /// falls at 0 < t_p < `t_max` within the build radius of the ray; d² is its squared distance
     /// to the ray.
+    #[cfg(test)]
     pub fn query(&self, o: Vec3, d: Vec3, t_max: f32, mut f: impl FnMut(&VolumePhoton, f32, f32)) {
+        self.query_slots(o, d, t_max, |ph, _, t, d2| f(ph, t, d2));
+    }
+
+    /// [`Self::query`], also passing each photon's slot.
+    #[inline]
+    pub fn query_slots(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        mut f: impl FnMut(&VolumePhoton, usize, f32, f32),
+    ) {
         if self.photons.is_empty() {
             return;
         }
         let ray = Lanes::new(o, d, self.radius);
         if self.view_active {
             if let Some(b) = self.view.bin(o, d) {
-                self.view
-                    .entries
-                    .scan(b, &ray, 0.0, t_max, |i, t, d2| f(&self.photons[i as usize], t, d2));
+                self.view.entries.scan(b, &ray, 0.0, t_max, |i, t, d2| {
+                    f(&self.photons[i as usize], i as usize, t, d2)
+                });
                 return;
             }
         }
-        let mut found = |i: u32, t: f32, d2: f32| f(&self.photons[i as usize], t, d2);
+        let mut found = |i: u32, t: f32, d2: f32| f(&self.photons[i as usize], i as usize, t, d2);
         // Walk the cells in grid coordinates, where cell k spans [k, k + 1).
         let og = (o - self.lo) * self.inv_cell;
         let dg = d * self.inv_cell;

@@ -16,11 +16,22 @@ pub struct PhotonGrid<P> {
     start: Vec<u32>,
     photons: Vec<P>,
     keys: Vec<u32>,
+    /// With tracking on, the index in the built list of the photon in each slot.
+    origin: Vec<u32>,
+    track: bool,
 }
 
 impl<P> Default for PhotonGrid<P> {
     fn default() -> Self {
-        Self { inv_cell: 1.0, mask: 0, start: Vec::new(), photons: Vec::new(), keys: Vec::new() }
+        Self {
+            inv_cell: 1.0,
+            mask: 0,
+            start: Vec::new(),
+            photons: Vec::new(),
+            keys: Vec::new(),
+            origin: Vec::new(),
+            track: false,
+        }
     }
 }
 
@@ -55,11 +66,34 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
         self.photons.resize(photons.len(), P::default());
         // Scatter with a moving cursor per bucket (reuse `start` shifted by one slot).
         let mut cursor = self.start[..buckets].to_vec();
-        for (ph, &k) in photons.iter().zip(&self.keys) {
+        self.origin.clear();
+        if self.track {
+            self.origin.resize(photons.len(), 0);
+        }
+        for (i, (ph, &k)) in photons.iter().zip(&self.keys).enumerate() {
             let slot = &mut cursor[k as usize];
             self.photons[*slot as usize] = *ph;
+            if self.track {
+                self.origin[*slot as usize] = i as u32;
+            }
             *slot += 1;
         }
+    }
+
+    /// Keep, from the next build on, which photon of the built list each slot holds
+    /// ([`Self::origin`]); off by default.
+    pub fn set_tracking(&mut self, on: bool) {
+        self.track = on;
+    }
+
+    /// The photons held (slots 0..len).
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    /// The index in the built list of the photon in `slot` (with tracking on).
+    pub fn origin(&self, slot: usize) -> usize {
+        self.origin[slot] as usize
     }
 
     #[inline]
@@ -76,6 +110,12 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
     /// must not exceed the radius the grid was built for.
     #[inline]
     pub fn query(&self, p: Vec3, radius: f32, mut f: impl FnMut(&P, f32)) {
+        self.query_slots(p, radius, |ph, _, d2| f(ph, d2));
+    }
+
+    /// [`Self::query`], also passing each photon's slot.
+    #[inline]
+    pub fn query_slots(&self, p: Vec3, radius: f32, mut f: impl FnMut(&P, usize, f32)) {
         if self.photons.is_empty() {
             return;
         }
@@ -98,10 +138,10 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
                         n_seen += 1;
                     }
                     let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
-                    for ph in &self.photons[s..e] {
+                    for (k, ph) in self.photons[s..e].iter().enumerate() {
                         let d2 = (ph.position() - p).length_squared();
                         if d2 < r2 {
-                            f(ph, d2);
+                            f(ph, s + k, d2);
                         }
                     }
                 }

@@ -2,7 +2,9 @@
 
 pub mod beam;
 mod entries;
+pub mod guide;
 pub mod map;
+pub(crate) mod marks;
 pub mod trace;
 mod view;
 

@@ -5,6 +5,7 @@
 //! (seed, iteration, path index), and chunks are concatenated in order, so the photon lists are the
 //! same whatever the thread count.
 
+use super::guide::{EmissionGuide, Guided, guided};
 use super::{Photon, VolumePhoton};
 use crate::accel::Hit;
 use crate::math::{Rgb, offset_origin};
@@ -12,7 +13,7 @@ use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
 use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -24,8 +25,10 @@ const CHUNK: u64 = 4096;
 pub struct PhotonPass {
     /// Render seed.
     pub seed: u64,
-    /// Iteration number (1-based).
+    /// Iteration number (1-based; 0 is the guiding pilot).
     pub iteration: u64,
+    /// Index of the first light path (its random stream; 0 but in the pilot's later rounds).
+    pub first_path: u64,
     /// Light paths to emit.
     pub paths: u64,
     /// Maximum scattering events per path (pass-through interfaces are not events): a photon is
@@ -34,6 +37,8 @@ pub struct PhotonPass {
     /// Store no photon at a light path's first event (light straight from the light), which the
     /// hybrid integrator estimates by next-event estimation instead.
     pub skip_direct: bool,
+    /// Record each path's light and guided uniforms, and each photon's path (the guiding pilot).
+    pub record: bool,
 }
 
 /// Photons left by a pass.
@@ -43,6 +48,30 @@ pub struct Photons {
     pub surface: Vec<Photon>,
     /// In media.
     pub volume: Vec<VolumePhoton>,
+    /// With `PhotonPass::record`: the light path of each surface photon …
+    pub(crate) surface_path: Vec<u32>,
+    /// … of each volume photon …
+    pub(crate) volume_path: Vec<u32>,
+    /// … and each path's light and guided pair of uniforms.
+    pub(crate) paths: Vec<(u32, Vec2)>,
+}
+
+impl Photons {
+    fn clear(&mut self) {
+        self.surface.clear();
+        self.volume.clear();
+        self.surface_path.clear();
+        self.volume_path.clear();
+        self.paths.clear();
+    }
+
+    fn append(&mut self, other: &Photons) {
+        self.surface.extend_from_slice(&other.surface);
+        self.volume.extend_from_slice(&other.volume);
+        self.surface_path.extend_from_slice(&other.surface_path);
+        self.volume_path.extend_from_slice(&other.volume_path);
+        self.paths.extend_from_slice(&other.paths);
+    }
 }
 
 /// Russian roulette after an event that turned throughput `before` into `after`: survive with
@@ -80,6 +109,8 @@ fn stored(path: &mut LightPath, pass: &PhotonPass) -> Option<f32> {
 
 /// A light path in flight.
 struct LightPath {
+    /// Its index in the pass.
+    index: u32,
     s: Sampler,
     o: Vec3,
     d: Vec3,
@@ -101,24 +132,44 @@ enum Step {
     Stop,
 }
 
+/// Where photons are emitted: by power and uniformly, or by a guide.
+#[derive(Clone, Copy)]
+pub(crate) enum Emitting<'a> {
+    ByPower(&'a LightSampler),
+    Guided(&'a EmissionGuide),
+}
+
 /// Traces one light path, storing its photons in `out`.
-fn trace_path(
-    scene: &Scene,
-    lights: &LightSampler,
-    pass: &PhotonPass,
-    index: u64,
-    out: &mut Photons,
-) {
+fn trace_path(scene: &Scene, emitting: Emitting, pass: &PhotonPass, index: u64, out: &mut Photons) {
     let mut s = Sampler::new(pass.seed, Purpose::Photon, pass.iteration, index);
-    let (li, p_light) = lights.pick_emission(s.next_f32());
-    let e = scene.lights[li].sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
+    let (li, p_light) = match emitting {
+        Emitting::ByPower(lights) => lights.pick_emission(s.next_f32()),
+        Emitting::Guided(g) => g.pick(s.next_f32()),
+    };
+    let light = &scene.lights[li];
+    let (u_pick, mut u_pos, mut u_dir) = (s.next_f32(), s.next_2d(), s.next_2d());
+    let dims = guided(light);
+    let u = match dims {
+        Guided::Position => &mut u_pos,
+        Guided::Direction => &mut u_dir,
+    };
+    let mut p_light = p_light;
+    if let Emitting::Guided(g) = emitting {
+        let (v, pdf) = g.warp(li, *u);
+        (*u, p_light) = (v, p_light * pdf);
+    }
+    if pass.record {
+        out.paths.push((li as u32, *u));
+    }
+    let e = light.sample_emission(u_pick, u_pos, u_dir);
     let beta: Rgb = e.beta / p_light;
     if beta.max_element() <= 0.0 {
         return;
     }
     let o = if e.n == Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
     let medium = scene.light_media[li];
-    let mut path = LightPath { s, o, d: e.d, beta, medium, bounces: 0, crossings: 0 };
+    let index = index as u32;
+    let mut path = LightPath { index, s, o, d: e.d, beta, medium, bounces: 0, crossings: 0 };
     loop {
         let hit = scene.intersect(path.o, path.d, f32::INFINITY);
         match collide(scene, pass, &mut path, hit.as_ref(), out) {
@@ -163,6 +214,9 @@ fn collide(
             let bounces = path.bounces as u16;
             let beta = path.beta * scale;
             out.volume.push(VolumePhoton { p, d, beta, medium: id as u16, bounces });
+            if pass.record {
+                out.volume_path.push(path.index);
+            }
         }
     }
     path.bounces += 1;
@@ -208,6 +262,9 @@ fn at_surface(
         if let Some(scale) = stored(path, pass) {
             let (beta, bounces) = (path.beta * scale, path.bounces as u16);
             out.surface.push(Photon { p: hit.p, n, beta, bounces });
+            if pass.record {
+                out.surface_path.push(path.index);
+            }
         }
     }
     path.bounces += 1;
@@ -229,20 +286,25 @@ fn at_surface(
     Step::Continue
 }
 
-/// Runs the photon pass into `out` (cleared first). Returns `false` if `stop` was raised before
-/// it finished (the photons are then incomplete and must not be used).
-pub fn trace_photons(
+/// Runs the photon pass into `out` (cleared first), emitting photons by power or by a guide.
+/// Returns `false` if `stop` was raised before it finished (the photons are then incomplete and
+/// must not be used).
+pub(crate) fn trace_photons(
     scene: &Scene,
     lights: &LightSampler,
+    guide: Option<&EmissionGuide>,
     pass: &PhotonPass,
     stop: &AtomicBool,
     out: &mut Photons,
 ) -> bool {
-    out.surface.clear();
-    out.volume.clear();
+    out.clear();
     if lights.is_empty() {
         return true;
     }
+    let emitting = match guide {
+        Some(g) => Emitting::Guided(g),
+        None => Emitting::ByPower(lights),
+    };
     let chunks = pass.paths.div_ceil(CHUNK);
     let parts: Vec<Option<Photons>> = (0..chunks)
         .into_par_iter()
@@ -253,17 +315,14 @@ pub fn trace_photons(
             let mut local = Photons::default();
             let end = ((c + 1) * CHUNK).min(pass.paths);
             for index in c * CHUNK..end {
-                trace_path(scene, lights, pass, index, &mut local);
+                trace_path(scene, emitting, pass, pass.first_path + index, &mut local);
             }
             Some(local)
         })
         .collect();
     for part in parts {
         match part {
-            Some(p) => {
-                out.surface.extend_from_slice(&p.surface);
-                out.volume.extend_from_slice(&p.volume);
-            }
+            Some(p) => out.append(&p),
             None => return false,
         }
     }

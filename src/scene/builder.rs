@@ -331,10 +331,9 @@ impl SceneBuilder {
             invalid("shapes".into(), "the geometry could not be organised into a BVH (degenerate?)")
         })?;
         let (lo, hi) = self.bounds(&prims);
-        let (center, radius) = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3) * 1.01);
         for (l, medium) in &self.lights {
             light_media.push(*medium);
-            lights.push(delta_light(l, center, radius));
+            lights.push(delta_light(l, (lo, hi)));
         }
         let scene = Scene {
             camera,
@@ -438,9 +437,9 @@ fn emitter(geometry: &Geometry, label: &str) -> Result<Emitter> {
     })
 }
 
-/// A described point, spot or directional light, for a scene whose bounding sphere has `center`
-/// and `radius` (a directional light covers it).
-fn delta_light(l: &LightKind, center: Vec3, radius: f32) -> Light {
+/// A described point, spot or directional light, for a scene of bounds `bounds` (a directional
+/// light covers them).
+fn delta_light(l: &LightKind, bounds: (Vec3, Vec3)) -> Light {
     match *l {
         LightKind::Point { position, power } => {
             Light::Point { position, intensity: power / (4.0 * std::f32::consts::PI) }
@@ -458,7 +457,7 @@ fn delta_light(l: &LightKind, center: Vec3, radius: f32) -> Light {
             }
         }
         LightKind::Directional { direction, irradiance } => {
-            Light::Directional { direction: direction.normalize(), irradiance, center, radius }
+            Light::directional(direction.normalize(), irradiance, bounds)
         }
     }
 }

@@ -226,6 +226,26 @@ impl Scene {
         self.lights.len()
     }
 
+    /// Where light `i` (as counted by [`Self::light_count`]) was defined and what it is, e.g.
+    /// `shapes[7], an area light` or `lights[1], a spot light`.
+    pub fn light_label(&self, i: usize) -> String {
+        let n_area = self.lights.iter().filter(|l| matches!(l, Light::Area { .. })).count();
+        match self.lights.get(i) {
+            Some(Light::Area { shape, .. }) => {
+                format!("{}, an area light", self.shapes[*shape as usize].label)
+            }
+            Some(l) => {
+                let kind = match l {
+                    Light::Point { .. } => "a point light",
+                    Light::Spot { .. } => "a spot light",
+                    _ => "a directional light",
+                };
+                format!("lights[{}], {kind}", i - n_area)
+            }
+            None => format!("no light {i}"),
+        }
+    }
+
     /// The names of the media, in the order they were defined.
     pub fn medium_names(&self) -> &[String] {
         &self.medium_names

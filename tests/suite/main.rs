@@ -12,6 +12,7 @@ mod fuzz_corpus;
 mod media;
 mod output;
 mod reliability;
+mod sampling;
 mod scenes;
 mod stability;
 mod validation;

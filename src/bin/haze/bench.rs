@@ -49,10 +49,14 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
     let settings = o.settings(&scene.settings)?;
     let pool = thread_pool(o.threads)?;
     let mut totals = Totals::default();
+    let mut first_pilot = 0.0;
     let mut on_iteration = |s: &Status| {
-        // The first iteration warms caches and the allocator; time the rest.
+        // The first iteration warms caches and the allocator (and runs the guiding pilot); time
+        // the rest.
         if s.iteration() > 1 {
             totals.add(s);
+        } else {
+            first_pilot = s.times.pilot;
         }
     };
     let stop = AtomicBool::new(false);
@@ -62,7 +66,49 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
         bail!("--iterations must be at least 2 for a benchmark (the first is a warm-up)");
     }
     report(&path, &scene, &settings, pool.current_num_threads(), timed, &totals);
+    if settings.integrator.uses_photons() {
+        let usage = pool.install(|| haze::photon_usage(&scene, &settings, 2, &stop))?;
+        if let Some(u) = usage {
+            report_usage(&scene, &settings, &u, first_pilot);
+        }
+    }
     Ok(())
+}
+
+/// Prints what one iteration's photons were used for, and what the guiding pilot found.
+fn report_usage(
+    scene: &haze::Scene,
+    settings: &haze::RenderSettings,
+    u: &haze::PhotonUsage,
+    pilot_seconds: f64,
+) {
+    let share = |a: u64, b: u64| if b == 0 { 0.0 } else { 100.0 * a as f64 / b as f64 };
+    let [s, v] = u.stored;
+    let how = match (settings.photon_guiding, u.guided) {
+        (haze::settings::PhotonGuiding::Off, _) => "guiding off".to_string(),
+        (_, true) => format!("guided by the pilot, estimated gain {:.1}x", u.gain),
+        (_, false) => format!(
+            "unguided: the pilot's estimated gain {:.2}x is below {}x",
+            u.gain,
+            haze::PILOT_MIN_GAIN
+        ),
+    };
+    println!(
+        "photons gathered by one camera pass ({how}): {:.1} % of {s} surface photons, {:.1} % of {v} volume photons ({} kept by thinning)",
+        share(u.gathered[0], s),
+        share(u.gathered[1], v),
+        u.kept[1],
+    );
+    if !u.pilot.is_empty() {
+        println!("guiding pilot: {pilot_seconds:.3} s, once per render");
+        for (i, (paths, visible, cells)) in u.pilot.iter().enumerate() {
+            println!(
+                "  light {i} ({}): {paths} pilot paths, {:.1} % visible, {cells} cells",
+                scene.light_label(i),
+                share(*visible, *paths)
+            );
+        }
+    }
 }
 
 /// Prints the table of step times per iteration over `timed` iterations.

@@ -32,8 +32,8 @@ pub(crate) use sampler::LightSampler;
 pub(crate) use tree::{Receiver, Segment};
 
 use crate::math::{
-    Frame, Rgb, sample_concentric_disc, sample_cosine_hemisphere, sample_triangle,
-    sample_uniform_cone, sample_uniform_sphere, smoothstep,
+    Frame, Rgb, sample_cosine_hemisphere, sample_triangle, sample_uniform_cone,
+    sample_uniform_sphere, smoothstep,
 };
 use crate::rng::Sampler;
 use glam::{Vec2, Vec3};
@@ -109,16 +109,19 @@ pub enum Light {
         /// cos of the angle where the falloff starts.
         cos_start: f32,
     },
-    /// Parallel light from outside the scene.
+    /// Parallel light from outside the scene. Its photons start on the rectangle `corner + u
+    /// edge_s + v edge_t` (u, v ∈ [0, 1]), perpendicular to `direction` and upstream of the whole
+    /// scene: the cross-section of the scene's bounds ([`Light::directional`]).
     Directional {
         /// Unit direction light travels.
         direction: Vec3,
         /// Irradiance on a perpendicular plane (W/m²).
         irradiance: Rgb,
-        /// Centre of the scene's bounding sphere.
-        center: Vec3,
-        /// Radius of the scene's bounding sphere.
-        radius: f32,
+        /// A corner of the emitting rectangle.
+        corner: Vec3,
+        /// Its two edges from `corner`, perpendicular to `direction` and to each other.
+        edge_s: Vec3,
+        edge_t: Vec3,
     },
     /// A shape that emits radiance `radiance` from its front side.
     Area {
@@ -145,6 +148,40 @@ pub struct Emission {
 }
 
 impl Light {
+    /// A directional light travelling along `direction` (unit) with irradiance `irradiance`,
+    /// emitting its photons over the cross-section of the box `bounds` (lo, hi): the rectangle,
+    /// perpendicular to the direction, that the box's corners project into (grown by 1 %),
+    /// placed upstream of the whole box. Anything the light can reach lies in that box — every
+    /// surface and medium of the scene — so no light that could reach the camera is left out;
+    /// where in that cross-section photons are useful is for the photon pass to find out.
+    pub fn directional(direction: Vec3, irradiance: Rgb, (lo, hi): (Vec3, Vec3)) -> Light {
+        let frame = Frame::new(direction);
+        let centre = 0.5 * (lo + hi);
+        let (mut a, mut b) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        let mut upstream = 0.0f32;
+        for k in 0..8 {
+            let c = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            ) - centre;
+            let st = Vec2::new(c.dot(frame.s), c.dot(frame.t));
+            (a, b) = (a.min(st), b.max(st));
+            upstream = upstream.max(-c.dot(direction));
+        }
+        let size = (b - a).max(Vec2::splat(1e-3));
+        let grow = 0.005 * size.max_element();
+        let (a, size) = (a - Vec2::splat(grow), size + Vec2::splat(2.0 * grow));
+        let back = (upstream * 1.01).max(1e-3);
+        Light::Directional {
+            direction,
+            irradiance,
+            corner: centre + frame.s * a.x + frame.t * a.y - direction * back,
+            edge_s: frame.s * size.x,
+            edge_t: frame.t * size.y,
+        }
+    }
+
     /// Total emitted power Φ (W), per channel.
     pub fn power(&self) -> Rgb {
         match self {
@@ -152,7 +189,9 @@ impl Light {
             Light::Spot { intensity, cos_max, cos_start, .. } => {
                 *intensity * spot_solid_angle(*cos_max, *cos_start)
             }
-            Light::Directional { irradiance, radius, .. } => *irradiance * PI * radius * radius,
+            Light::Directional { irradiance, edge_s, edge_t, .. } => {
+                *irradiance * edge_s.cross(*edge_t).length()
+            }
             Light::Area { radiance, emitter, .. } => *radiance * PI * emitter.area(),
         }
     }
@@ -177,11 +216,8 @@ impl Light {
                     beta: *intensity * falloff * inv_pdf,
                 }
             }
-            Light::Directional { direction, center, radius, .. } => {
-                let frame = Frame::new(*direction);
-                let disc = sample_concentric_disc(u_pos) * *radius;
-                let p =
-                    *center + frame.to_world(Vec3::new(disc.x, disc.y, 0.0)) - *direction * *radius;
+            Light::Directional { direction, corner, edge_s, edge_t, .. } => {
+                let p = *corner + *edge_s * u_pos.x + *edge_t * u_pos.y;
                 Emission { p, d: *direction, n: Vec3::ZERO, beta: self.power() }
             }
             Light::Area { emitter, .. } => {
@@ -400,21 +436,34 @@ mod tests {
             .map(|c| c.iter().sum::<f64>() / c.len() as f64)
             .collect();
         assert_agrees("spot power", &batches, power as f64, 0.0);
-        // The directional light: positions uniform on the disc of its bounding sphere, in polar
-        // coordinates (r²/R², φ/2π).
+        // The directional light: positions uniform on its cross-section of the bounds, which
+        // lies upstream of the box and covers its shadow: every point of the box is reached by
+        // the rectangle's rays.
         let direction = Vec3::new(0.3, -1.0, 0.2).normalize();
-        let (center, radius) = (Vec3::new(1.0, 2.0, 3.0), 4.0);
-        let sun = Light::Directional { direction, irradiance: Rgb::splat(3.0), center, radius };
-        let frame = Frame::new(direction);
+        let bounds = (Vec3::new(-12.0, 0.0, -12.0), Vec3::new(12.0, 3.0, 12.0));
+        let sun = Light::directional(direction, Rgb::splat(3.0), bounds);
+        let Light::Directional { corner, edge_s, edge_t, .. } = sun else { unreachable!() };
+        let local = |p: Vec3| {
+            let v = p - corner;
+            (v.dot(edge_s) / edge_s.length_squared(), v.dot(edge_t) / edge_t.length_squared())
+        };
+        let mut s = Sampler::new(9, crate::rng::Purpose::Other, 0, 0);
+        for _ in 0..1000 {
+            let p = bounds.0
+                + (bounds.1 - bounds.0) * Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
+            let (u, v) = local(p);
+            assert!((0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v), "{p} not covered");
+            assert!((p - corner).dot(direction) > 0.0, "{p} upstream of the light");
+        }
+        let area = edge_s.cross(edge_t).length();
+        assert!((sun.power().x - 3.0 * area).abs() < 1e-3 * sun.power().x);
         ChiSquare::new("directional light positions", Domain::Square, TESTS).run(
             |s| {
                 let e = sun.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert_eq!(e.d, direction);
-                let local = frame.to_local(e.p - (center - direction * radius));
-                assert!(local.z.abs() < 1e-4, "off the disc: {local}");
-                let r2 = (local.x * local.x + local.y * local.y) as f64 / (radius * radius) as f64;
-                let phi = (local.y as f64).atan2(local.x as f64).rem_euclid(2.0 * PI64);
-                Some(Sample::Point(DVec2::new(r2, phi / (2.0 * PI64))))
+                assert!((e.p - corner).dot(direction).abs() < 1e-3, "off the rectangle");
+                let (u, v) = local(e.p);
+                Some(Sample::Point(DVec2::new(u as f64, v as f64)))
             },
             |_| 1.0,
         );
@@ -507,12 +556,7 @@ mod tests {
         let cos = -Vec3::new(0.3, -1.0, 0.0).normalize().y;
         let want = 8.0 * smoothstep(cos_max, cos_start, cos) / 4.0;
         assert!((ls.value.x - want).abs() < 1e-5 && ls.pdf.is_none());
-        let sun = Light::Directional {
-            direction: -Vec3::Y,
-            irradiance: Rgb::splat(3.0),
-            center: Vec3::ZERO,
-            radius: 10.0,
-        };
+        let sun = Light::directional(-Vec3::Y, Rgb::splat(3.0), (-Vec3::ONE, Vec3::ONE));
         let ls = sun.sample_li(p, &mut s).unwrap();
         assert_eq!(
             (ls.wi, ls.dist, ls.value, ls.pdf),

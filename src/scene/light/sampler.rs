@@ -141,13 +141,12 @@ mod tests {
         }
     }
 
-    fn sun(direction: Vec3, e: f32, radius: f32) -> Light {
-        Light::Directional {
-            direction: direction.normalize(),
-            irradiance: Rgb::splat(e),
-            center: Vec3::ZERO,
-            radius,
-        }
+    fn sun(direction: Vec3, e: f32, size: f32) -> Light {
+        Light::directional(
+            direction.normalize(),
+            Rgb::splat(e),
+            (-Vec3::ONE * size, Vec3::ONE * size),
+        )
     }
 
     /// A rectangle area light of radiance `l` centred at `c`, facing +z (or −z if `down`).
