@@ -155,8 +155,7 @@ choices! {
     pub enum PhotonGuiding ("photon guiding") {
         /// Towards the light paths the camera sees (the default): a pilot pass at the start of
         /// a render finds which emitted photons reach what the camera gathers, and every
-        /// iteration then emits by that, with a tenth of its photons still spread as without
-        /// guiding (docs/theory.md, "Photons where the camera looks").
+        /// iteration then emits half its photons by that and half as without guiding (docs/theory.md, "Photons where the camera looks").
         Visibility = "visibility",
         /// Photons leave every light in proportion to its power, uniformly over its emission.
         Off = "off",

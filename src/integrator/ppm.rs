@@ -347,13 +347,13 @@ impl PhotonMapper {
 }
 
 /// Light paths per round of the guiding pilot: the paths of an iteration, within these bounds …
-const PILOT_PATHS: (u64, u64) = (1 << 14, 1 << 21);
+const PILOT_PATHS: (u64, u64) = (1 << 12, 1 << 21);
 
 /// … in rounds, until every light that wastes photons has this many visible paths …
 const PILOT_VISIBLE: u64 = 512;
 
 /// … or this many rounds have run.
-const PILOT_ROUNDS: u64 = 4;
+const PILOT_ROUNDS: u64 = 2;
 
 /// Pilot paths and visible ones, per light.
 fn light_use(lights: usize, paths: &[PilotPath]) -> Vec<LightUse> {

@@ -142,22 +142,26 @@ pub(crate) enum Emitting<'a> {
 /// Traces one light path, storing its photons in `out`.
 fn trace_path(scene: &Scene, emitting: Emitting, pass: &PhotonPass, index: u64, out: &mut Photons) {
     let mut s = Sampler::new(pass.seed, Purpose::Photon, pass.iteration, index);
-    let (li, p_light) = match emitting {
-        Emitting::ByPower(lights) => lights.pick_emission(s.next_f32()),
-        Emitting::Guided(g) => g.pick(s.next_f32()),
+    let u_light = s.next_f32();
+    let (li, guided_pick) = match emitting {
+        Emitting::ByPower(lights) => (lights.pick_emission(u_light).0, false),
+        Emitting::Guided(g) => g.pick(u_light),
     };
     let light = &scene.lights[li];
     let (u_pick, mut u_pos, mut u_dir) = (s.next_f32(), s.next_2d(), s.next_2d());
-    let dims = guided(light);
-    let u = match dims {
+    let u = match guided(light) {
         Guided::Position => &mut u_pos,
         Guided::Direction => &mut u_dir,
     };
-    let mut p_light = p_light;
-    if let Emitting::Guided(g) = emitting {
-        let (v, pdf) = g.warp(li, *u);
-        (*u, p_light) = (v, p_light * pdf);
-    }
+    // The density of the light and its uniforms: by power and uniform, or the guide's mixture.
+    let p_light = match emitting {
+        Emitting::ByPower(lights) => lights.emission_prob(li),
+        Emitting::Guided(g) => {
+            let (v, density) = g.place(li, *u, guided_pick);
+            *u = v;
+            density
+        }
+    };
     if pass.record {
         out.paths.push((li as u32, *u));
     }

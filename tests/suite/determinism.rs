@@ -61,3 +61,19 @@ fn media_images_are_bit_identical_across_thread_counts() {
         }
     }
 }
+
+/// Photon guiding: the pilot's tallies are maxima, which concurrent updates leave the same in any
+/// order, so the guide — and every image it shapes — is the same on any number of threads.
+#[test]
+fn guided_images_are_bit_identical_across_thread_counts() {
+    let mut scene = Scene::load(scene_path("vdb-cloud.toml")).unwrap();
+    scene.set_resolution([80, 50]).unwrap();
+    let settings = Settings { photons: 30_000, ..scene.settings.clone() };
+    let usage = haze::photon_usage(&scene, &settings, 1, &AtomicBool::new(false)).unwrap().unwrap();
+    assert!(usage.guided, "vdb-cloud should be guided: {usage:?}");
+    let one = render_settings(&scene, &settings, 1, 5);
+    for threads in [2, 3] {
+        let other = render_settings(&scene, &settings, threads, 5);
+        assert!(one.pixels == other.pixels, "vdb-cloud guided: 1 and {threads} threads differ");
+    }
+}

@@ -62,7 +62,13 @@ fn furnace_bias(le: f64, sigma_t: f64, r: f64) -> f64 {
 /// photons are stored, so the estimate is a rare large value: the radius (0.3; its bias bound is
 /// still below 10⁻³) and the iteration count are raised until a render holds several collisions,
 /// or the t-test would see only the common zeros. The dense case random-walks long paths, so it
-/// uses fewer photons and seeds.
+/// uses fewer photons and seeds. At g = ±0.95 a photon's phase value f(ω_p, −ω) has a relative
+/// variance of ~200 over directions (∫f² dω = (1 + g²)/(4π (1 − g²)²) against f̄ = 1/4π), and a
+/// path's photons are strongly correlated, so with small radii a render's mean is a rare large
+/// value: at r = 0.02, twelve renders of each photon estimate had a median of a quarter of L_e and
+/// a mean anywhere from 0.4 to 1.5 (the t-test then assumes a normality the means do not have).
+/// The radius 0.2 gathers 100× (beam) and 1000× (point) more photons per query; its boundary bias
+/// bound is 0.047.
 #[test]
 fn furnace_holds_at_extreme_thickness_and_anisotropy() {
     let le = 1.0;
@@ -70,8 +76,8 @@ fn furnace_holds_at_extreme_thickness_and_anisotropy() {
     let cases = [
         (0.005f32, 0.0f32, 0.3f64, 20_000u64, 12u64, 16u64),
         (50.0, 0.0, 0.03, 3_000, 8, 4),
-        (2.0, 0.95, 0.02, 10_000, 12, 4),
-        (2.0, -0.95, 0.02, 10_000, 12, 4),
+        (2.0, 0.95, 0.2, 10_000, 12, 4),
+        (2.0, -0.95, 0.2, 10_000, 12, 4),
     ];
     for (sigma_s, g, r, photons, seeds, iterations) in cases {
         let scene = furnace(Vec3::splat(le), homogeneous(Vec3::ZERO, Vec3::splat(sigma_s), g));
