@@ -4,7 +4,11 @@
 use std::path::PathBuf;
 
 /// Errors returned by haze's library API.
-#[derive(Debug, thiserror::Error)]
+///
+/// `Debug` prints the same one-line message as `Display`, so that `fn main() -> Result<(),
+/// haze::Error>` shows users `Error: scenes/fog.toml:12: media.fog.sigma_s: …` rather than the
+/// enum's fields; match on the variants for the parts.
+#[derive(thiserror::Error)]
 pub enum Error {
     /// A file could not be read or written.
     #[error("{path}: {error}")]
@@ -63,6 +67,12 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+}
+
+impl std::fmt::Debug for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
 }
 
 /// "FILE:LINE: " or "FILE: " before a key, or nothing for a scene built in code.

@@ -9,8 +9,12 @@
 //! or from a [`SceneBuilder`] fed with descriptions that read like the file
 //! ([`scene::describe`]). [`render`] takes the scene and [`RenderSettings`] (every setting and its
 //! meaning: [`settings`]) and returns an [`Image`], reporting every iteration to a
-//! [`progress::Progress`] callback; the library never prints. The [`lab`] holds the analytic
-//! references and the tools that check and measure the renderer.
+//! [`progress::Progress`] callback; the library never prints. The `lab` module (feature `lab`, on
+//! by default) holds the analytic references and the tools that check and measure the renderer.
+//!
+//! Relative file paths (an OpenVDB grid, an OBJ mesh) resolve against the scene file's directory
+//! in a scene file, and against the working directory in a scene built in code; error messages
+//! about such files say which.
 //!
 //! Rendering a scene file (paths are relative to the working directory):
 //!
@@ -51,7 +55,7 @@
 //! assert!(image.mean() > 0.0);
 //! # Ok::<(), haze::Error>(())
 //! ```
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 mod accel;
@@ -69,6 +73,7 @@ pub mod output;
 pub mod partial;
 mod photon;
 pub mod progress;
+pub mod raybench;
 mod render;
 mod rng;
 pub mod scene;
@@ -111,6 +116,11 @@ pub mod fuzzing {
         .map(|_| ())
     }
 }
+/// The README's examples, compiled (and the runnable ones run) by `cargo test --doc`.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExamples;
+
 pub use glam;
 pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};

@@ -32,6 +32,9 @@ pub struct Partial {
     pub fingerprint: [u8; 32],
     /// State a method carries between iterations (the original PPM's per-pixel statistics).
     pub(crate) state: Option<Vec<u8>>,
+    /// The image file the render that made this partial was writing, if any (the command line
+    /// records it, so that a resume continues the same files unless told otherwise).
+    pub output: Option<PathBuf>,
 }
 
 fn part_err(path: &Path, message: impl Into<String>) -> Error {
@@ -74,17 +77,18 @@ impl Partial {
         size: [u32; 2],
         settings: &RenderSettings,
     ) -> std::result::Result<(), String> {
-        if &self.fingerprint != fingerprint {
-            return Err("renders of different scenes (or of a scene, mesh or volume file that \
-                 changed in between): their fingerprints differ"
-                .into());
-        }
+        // The size first: it is part of the fingerprint too, and the likelier difference.
         let own = [self.film.width(), self.film.height()];
         if own != size {
             return Err(format!(
                 "image sizes differ: {}x{} and {}x{}",
                 own[0], own[1], size[0], size[1]
             ));
+        }
+        if &self.fingerprint != fingerprint {
+            return Err("renders of different scenes (or of a scene, mesh or volume file that \
+                 changed in between): their fingerprints differ"
+                .into());
         }
         let (ka, kb) = (merge_key(&self.info.settings), merge_key(settings));
         for ((k, va), (_, vb)) in ka.iter().zip(&kb) {
@@ -223,6 +227,9 @@ impl Partial {
         if let Some(scene) = i.scene.as_ref().and_then(|p| p.to_str()) {
             put("scene", scene.into());
         }
+        if let Some(output) = self.output.as_ref().and_then(|p| p.to_str()) {
+            put("output", output.into());
+        }
         let settings = toml::Table::try_from(&i.settings).map_err(|e| e.to_string())?;
         put("settings", toml::Value::Table(settings));
         toml::to_string(&t).map_err(|e| e.to_string())
@@ -337,7 +344,9 @@ impl Partial {
             iterations,
             int("saturated_values")?,
         );
-        let part = Partial { info, film, fingerprint, state: (!state.is_empty()).then_some(state) };
+        let output = t.get("output").and_then(|v| v.as_str()).map(PathBuf::from);
+        let state = (!state.is_empty()).then_some(state);
+        let part = Partial { info, film, fingerprint, state, output };
         if part.checksum(&header, part.state.as_deref().unwrap_or(&[])) != stored {
             return Err(err("checksum mismatch: the file is corrupt".into()));
         }

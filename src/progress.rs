@@ -47,6 +47,7 @@ impl Status<'_> {
             film: self.film.clone(),
             fingerprint: self.fingerprint,
             state: self.method.save_state(),
+            output: None,
         }
     }
 }

@@ -188,7 +188,7 @@ pub fn render_partial(
         }
     });
     let info = info(&method, iteration, &nonfinite);
-    Ok(Partial { info, film, fingerprint, state: method.save_state() })
+    Ok(Partial { info, film, fingerprint, state: method.save_state(), output: None })
 }
 
 struct RaiseOnDrop<'a>(&'a AtomicBool);

@@ -19,6 +19,8 @@ pub enum Purpose {
     Other = 3,
     /// Russian-roulette thinning of dense photon cells.
     Thinning = 4,
+    /// The ray sets of `haze bench rays`.
+    Benchmark = 5,
 }
 
 /// A portable seeded generator (xoshiro256++), with the float helpers the renderer needs.

@@ -7,13 +7,14 @@
 //! multiple importance sampling (power heuristic over solid-angle densities; Veach 1997):
 //! [`next_event`] weighs the light sample, [`emission_weight`] an emitter the path reaches.
 
-use crate::accel::Hit;
-use crate::math::{Rgb, offset_origin};
+use crate::accel::{Hit, Passage};
+use crate::math::{Rgb, offset_origin, ray_offset};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
 use glam::Vec3;
+use smallvec::SmallVec;
 
 /// What a ray meets when followed through pass-through interfaces.
 enum Crossing {
@@ -27,52 +28,59 @@ enum Crossing {
 
 /// Follows `o + t d`, t ≤ `dist`, starting in `medium`, through pass-through interfaces,
 /// multiplying the transmittance of the media it crosses (exact for homogeneous media, ratio
-/// tracking for grids), to the first other surface or the end.
+/// tracking for grids), to the first other surface or the end. `stop`: a shadow ray, blocked by
+/// any other surface (the traversal stops at the first it finds); otherwise the nearest other
+/// surface is the result, if `wanted` accepts it. One traversal finds the interfaces and what
+/// lies beyond (instead of a closest-hit query from each interface to the next), and no
+/// transmittance is estimated for a ray that ends blocked or on an unwanted surface.
+#[allow(clippy::too_many_arguments)]
 fn cross(
     scene: &Scene,
-    mut o: Vec3,
+    o: Vec3,
     d: Vec3,
     dist: f32,
     mut medium: Option<u32>,
+    stop: bool,
+    wanted: impl Fn(&Hit) -> bool,
     s: &mut Sampler,
 ) -> Crossing {
+    let mut crossings = SmallVec::<[Hit; 4]>::new();
+    // Two hits of one interface within the ray offset are one crossing (its shared edge).
+    let merge = ray_offset(o) + ray_offset(o + d * dist.min(scene.diagonal()));
+    let end = match scene.accel.through(
+        o,
+        d,
+        dist,
+        &scene.passthrough,
+        stop,
+        merge,
+        MAX_CROSSINGS as usize,
+        &mut crossings,
+    ) {
+        Passage::Blocked => return Crossing::Blocked,
+        Passage::Clear => None,
+        Passage::Surface(hit) if wanted(&hit) => Some(hit),
+        Passage::Surface(_) => return Crossing::Blocked,
+    };
     let mut tr = Rgb::ONE;
-    let mut left = dist;
-    // Each pass-through interface moves the origin off the line by the ray offset; re-aim at the
-    // fixed end point so that the ray still stops short of the light. (Only shortening the
-    // remaining length let the end creep past an area light within ~10⁴ offsets of an interface,
-    // and the light itself then blocked the shadow ray.)
-    let end = if dist.is_finite() { Some(o + d * dist) } else { None };
-    let mut d = d;
-    for _ in 0..=MAX_CROSSINGS {
-        let hit = scene.intersect(o, d, left);
-        let t = hit.map_or(left, |h| h.t);
+    let mut t0 = 0.0f32;
+    for hit in crossings.iter().map(Some).chain([end.as_ref()]) {
+        let t1 = hit.map_or(dist, |h| h.t);
         if let Some(id) = medium {
-            tr *= scene.media[id as usize].transmittance(o, d, t, s);
+            tr *= scene.media[id as usize].transmittance(o + d * t0, d, t1 - t0, s);
             if tr.max_element() <= 0.0 {
                 return Crossing::Blocked;
             }
         }
-        let Some(hit) = hit else { return Crossing::Reached(tr) };
+        let Some(hit) = hit else { break };
         let shape = &scene.shapes[hit.tag as usize];
-        if scene.materials[shape.material as usize] != Material::Interface {
-            return Crossing::Surface(hit, tr);
-        }
         medium = shape.medium_after(medium, -d, d, hit.ng);
-        o = offset_origin(hit.p, hit.ng, d);
-        match end {
-            Some(end) => {
-                let to_end = end - o;
-                left = to_end.length();
-                if left <= 0.0 || to_end.dot(d) <= 0.0 {
-                    return Crossing::Reached(tr);
-                }
-                d = to_end / left;
-            }
-            None => left = f32::INFINITY,
-        }
+        t0 = t1;
     }
-    Crossing::Blocked
+    match end {
+        Some(hit) => Crossing::Surface(hit, tr),
+        None => Crossing::Reached(tr),
+    }
 }
 
 /// Transmittance from `o` along `d` over `dist`, starting in `medium`, through pass-through
@@ -85,7 +93,7 @@ pub(crate) fn shadow(
     medium: Option<u32>,
     s: &mut Sampler,
 ) -> Rgb {
-    match cross(scene, o, d, dist, medium, s) {
+    match cross(scene, o, d, dist, medium, true, |_| true, s) {
         Crossing::Reached(tr) => tr,
         Crossing::Surface(..) | Crossing::Blocked => Rgb::ZERO,
     }
@@ -131,18 +139,21 @@ pub(crate) fn next_event(
     fv * ls.value * shadow(scene, p, ls.wi, ls.dist, medium, s) * (weight / p_light)
 }
 
-/// The first surface that is not pass-through along `o + t d` (starting in `medium`) and the
-/// transmittance up to it, or `None` if nothing is hit or no light gets through. For the direct
-/// light a sampled direction brings from an emitter.
-fn transmitted_hit(
+/// The first surface that is not pass-through along `o + t d` (starting in `medium`), if it is
+/// an emitter facing the ray, and the transmittance up to it; `None` if nothing is hit, the
+/// surface does not emit towards the ray, or no light gets through. For the direct light a
+/// sampled direction brings from an emitter.
+fn emitter_hit(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
     medium: Option<u32>,
     s: &mut Sampler,
-) -> Option<(Hit, Rgb)> {
-    match cross(scene, o, d, f32::INFINITY, medium, s) {
-        Crossing::Surface(hit, tr) => Some((hit, tr)),
+) -> Option<(Hit, Rgb, Rgb)> {
+    let emission =
+        |hit: &Hit| scene.shapes[hit.tag as usize].emission.filter(|_| (-d).dot(hit.ng) > 0.0);
+    match cross(scene, o, d, f32::INFINITY, medium, false, |h| emission(h).is_some(), s) {
+        Crossing::Surface(hit, tr) => Some((hit, tr, emission(&hit)?)),
         Crossing::Reached(_) | Crossing::Blocked => None,
     }
 }
@@ -196,10 +207,8 @@ pub(crate) fn emitted(
     medium: Option<u32>,
     s: &mut Sampler,
 ) -> Rgb {
-    let Some((hit, tr)) = transmitted_hit(scene, from.p, wi, medium, s) else { return Rgb::ZERO };
-    let shape = &scene.shapes[hit.tag as usize];
-    match shape.emission.filter(|_| (-wi).dot(hit.ng) > 0.0) {
-        Some(le) => weight * tr * le * emission_weight(lights, &hit, -wi, from, pdf_dir),
+    match emitter_hit(scene, from.p, wi, medium, s) {
+        Some((hit, tr, le)) => weight * tr * le * emission_weight(lights, &hit, -wi, from, pdf_dir),
         None => Rgb::ZERO,
     }
 }

@@ -117,17 +117,44 @@ impl DensityGrid {
         let f = q.floor();
         let i = f.as_ivec3();
         let t = q - f;
+        let weights = [
+            (1.0 - t.x) * (1.0 - t.y) * (1.0 - t.z),
+            t.x * (1.0 - t.y) * (1.0 - t.z),
+            (1.0 - t.x) * t.y * (1.0 - t.z),
+            t.x * t.y * (1.0 - t.z),
+            (1.0 - t.x) * (1.0 - t.y) * t.z,
+            t.x * (1.0 - t.y) * t.z,
+            (1.0 - t.x) * t.y * t.z,
+            t.x * t.y * t.z,
+        ];
+        let lo = i - self.origin;
+        if lo.cmpge(IVec3::ZERO).all() && (lo + IVec3::ONE).cmplt(self.dims).all() {
+            // All eight corners inside the box (most lookups): one index, no per-corner checks.
+            // The same products summed in the same order as below, so the same bits.
+            let (sy, sz) = (self.dims.x as usize, (self.dims.x * self.dims.y) as usize);
+            let base = lo.x as usize + sy * lo.y as usize + sz * lo.z as usize;
+            let cell = &self.data[base..=base + sz + sy + 1];
+            let corners = [0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1];
+            let mut d = 0.0;
+            for (w, c) in weights.into_iter().zip(corners) {
+                if w > 0.0 {
+                    d += w * cell[c];
+                }
+            }
+            return d;
+        }
+        let offsets = [
+            IVec3::new(0, 0, 0),
+            IVec3::new(1, 0, 0),
+            IVec3::new(0, 1, 0),
+            IVec3::new(1, 1, 0),
+            IVec3::new(0, 0, 1),
+            IVec3::new(1, 0, 1),
+            IVec3::new(0, 1, 1),
+            IVec3::new(1, 1, 1),
+        ];
         let mut d = 0.0;
-        for (k, w) in [
-            (IVec3::new(0, 0, 0), (1.0 - t.x) * (1.0 - t.y) * (1.0 - t.z)),
-            (IVec3::new(1, 0, 0), t.x * (1.0 - t.y) * (1.0 - t.z)),
-            (IVec3::new(0, 1, 0), (1.0 - t.x) * t.y * (1.0 - t.z)),
-            (IVec3::new(1, 1, 0), t.x * t.y * (1.0 - t.z)),
-            (IVec3::new(0, 0, 1), (1.0 - t.x) * (1.0 - t.y) * t.z),
-            (IVec3::new(1, 0, 1), t.x * (1.0 - t.y) * t.z),
-            (IVec3::new(0, 1, 1), (1.0 - t.x) * t.y * t.z),
-            (IVec3::new(1, 1, 1), t.x * t.y * t.z),
-        ] {
+        for (w, k) in weights.into_iter().zip(offsets) {
             if w > 0.0 {
                 d += w * self.voxel(i + k);
             }

@@ -21,6 +21,7 @@ use crate::rng::Sampler;
 use glam::Vec3;
 use homogeneous::Homogeneous;
 use phase::HenyeyGreenstein;
+use smallvec::SmallVec;
 use vdb::VdbMedium;
 
 /// The outcome of free-flight sampling along a ray segment.
@@ -91,7 +92,12 @@ pub struct TransmittanceDistance<'a> {
     sigma: f32,
     /// ∫ T over [t0, t1] (grids), or the exponential's normalisation 1 − e^{−σ (t1 − t0)}.
     total: f32,
+    /// Cumulative ∫ T over the step function's intervals (grids; see [`step_areas`]).
+    areas: StepAreas,
 }
+
+/// Cumulative areas under a step function, on the stack for up to 16 steps.
+type StepAreas = SmallVec<[f32; 16]>;
 
 impl<'a> TransmittanceDistance<'a> {
     /// The distribution over [t0, t1] for the segment's transmittance `tr`; `None` if it has no
@@ -101,20 +107,22 @@ impl<'a> TransmittanceDistance<'a> {
             SegmentTransmittance::Grey { sigma_t } => *sigma_t,
             SegmentTransmittance::Exponential { sigma_t } => sigma_t.element_sum() / 3.0,
             SegmentTransmittance::Steps(steps) => {
-                let total = step_areas(steps, t0, t1).last().copied().unwrap_or(0.0);
+                let areas = step_areas(steps, t0, t1);
+                let total = areas.last().copied().unwrap_or(0.0);
                 let ok = total > 0.0 && total.is_finite();
-                return ok.then_some(Self { tr, t0, t1, sigma: 0.0, total });
+                return ok.then_some(Self { tr, t0, t1, sigma: 0.0, total, areas });
             }
         };
         let total = -(-sigma * (t1 - t0)).exp_m1();
-        (sigma > 0.0 && total > 0.0).then_some(Self { tr, t0, t1, sigma, total })
+        let areas = StepAreas::new();
+        (sigma > 0.0 && total > 0.0).then_some(Self { tr, t0, t1, sigma, total, areas })
     }
 
     /// A distance drawn from a uniform `u`, and its density.
     pub fn sample(&self, u: f32) -> (f32, f32) {
         let t = match self.tr {
             SegmentTransmittance::Steps(steps) => {
-                let areas = step_areas(steps, self.t0, self.t1);
+                let areas = &self.areas;
                 let target = u * self.total;
                 let i = areas.partition_point(|&a| a <= target).min(areas.len() - 1);
                 let (lo, hi) = step_interval(steps, i, self.t0, self.t1);
@@ -154,7 +162,7 @@ fn step_value(steps: &[(f32, f32)], i: usize) -> f32 {
 }
 
 /// Cumulative ∫ T over the intervals of a step function clipped to [t0, t1].
-fn step_areas(steps: &[(f32, f32)], t0: f32, t1: f32) -> Vec<f32> {
+fn step_areas(steps: &[(f32, f32)], t0: f32, t1: f32) -> StepAreas {
     let mut total = 0.0;
     (0..=steps.len())
         .map(|i| {

@@ -70,7 +70,7 @@ pub struct VdbMedium {
 }
 
 /// A transmittance step function along one segment: `(t_k, T after t_k)`.
-pub type TransmittanceSteps = Vec<(f32, f32)>;
+pub type TransmittanceSteps = smallvec::SmallVec<[(f32, f32); 16]>;
 
 impl VdbMedium {
     /// Builds the medium from a loaded grid. `to_scene` places the grid's world space in the
@@ -275,7 +275,7 @@ impl VdbMedium {
         t_max: f32,
         s: &mut Sampler,
     ) -> TransmittanceSteps {
-        let mut steps = Vec::new();
+        let mut steps = TransmittanceSteps::new();
         let mut tr = 1.0f32;
         let complete = self.tentative(o, d, t_max, s, |t, sigma_t, mu, _| {
             tr = (tr * (1.0 - sigma_t / mu)).max(0.0);

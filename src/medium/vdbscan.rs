@@ -268,17 +268,18 @@ fn values(c: &mut Cursor, d: &Descriptor, n: usize, active: usize) -> Result<(),
             block.get(k..k + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
         };
         if word(12).is_none_or(|n| n < 16 || n as usize > block.len()) {
-            return c.fail(&format!(
-                "Blosc block of {} bytes says it holds {:?}",
-                block.len(),
-                word(12)
-            ));
+            return c.fail(&match word(12) {
+                Some(n) => format!("a Blosc block of {} bytes says it holds {n}", block.len()),
+                None => format!("a Blosc block of {} bytes has no complete header", block.len()),
+            });
         }
         if word(4) != Some(bytes as u32) {
-            return c.fail(&format!(
-                "compressed block expands to {:?} bytes, not {bytes} for {count} values",
-                word(4)
-            ));
+            return c.fail(&match word(4) {
+                Some(n) => format!(
+                    "a compressed block says it expands to {n} bytes, but its {count} values need {bytes}"
+                ),
+                None => format!("a compressed block has no complete header ({count} values)"),
+            });
         }
     }
     Ok(())

@@ -21,7 +21,7 @@ use crate::medium::phase::HenyeyGreenstein;
 use crate::medium::vdb::VdbMedium;
 use crate::settings::RenderSettings;
 use glam::Vec3;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Most subdivisions of a tessellated sphere (327,680 triangles).
 pub const MAX_TESSELLATION: u32 = 7;
@@ -119,6 +119,25 @@ impl SceneBuilder {
         }
     }
 
+    /// `message` about the file at `path`, with where a relative path was resolved: against the
+    /// scene file's directory (scene files), or the working directory (scenes built in code).
+    fn relative_note(&self, path: &Path, message: String) -> String {
+        if path.is_absolute() {
+            return message;
+        }
+        match &self.source {
+            Some(_) => format!("{message} (paths in a scene file are relative to its directory)"),
+            None => {
+                let cwd = std::env::current_dir()
+                    .map_or_else(|_| "?".to_string(), |d| d.display().to_string());
+                format!(
+                    "{message} (a relative path in a scene built in code is resolved against the \
+                     working directory, {cwd})"
+                )
+            }
+        }
+    }
+
     /// Checks the camera now (the loader reports a bad camera before anything else).
     pub(crate) fn check_camera(&self) -> Result<()> {
         Camera::from_desc(&self.camera).map(|_| ()).map_err(|(k, m)| invalid(k, m))
@@ -202,7 +221,7 @@ impl SceneBuilder {
                 }
                 check_transform(&transform, &format!("media.{name}"))?;
                 let grid = DensityGrid::load(&file, &grid)
-                    .map_err(|e| invalid(key("file"), e.to_string()))?;
+                    .map_err(|e| invalid(key("file"), self.relative_note(&file, e.to_string())))?;
                 let to_scene = transform.matrix();
                 Medium::Vdb(Box::new(VdbMedium::new(
                     grid,
@@ -266,7 +285,19 @@ impl SceneBuilder {
             check_color(format!("{label}.emission"), e, None)?;
         }
         check_transform(&desc.transform, &label)?;
-        let geometry = geometry(&desc.geometry, &desc.transform, &label)?;
+        let geometry = geometry(&desc.geometry, &desc.transform, &label).map_err(|e| {
+            match (&desc.geometry, e) {
+                (GeometryDesc::Obj(path), Error::Invalid { path: p, line, key, message }) => {
+                    Error::Invalid {
+                        path: p,
+                        line,
+                        key,
+                        message: self.relative_note(path, message),
+                    }
+                }
+                (_, e) => e,
+            }
+        })?;
         check_geometry(&geometry, &label)?;
         let shape = Shape { label, material, emission: desc.emission, media };
         self.shapes.push((shape, geometry));
@@ -335,10 +366,15 @@ impl SceneBuilder {
             light_media.push(*medium);
             lights.push(delta_light(l, (lo, hi)));
         }
+        let materials: Vec<Material> = self.materials.into_iter().map(|(_, m)| m).collect();
+        let shapes: Vec<Shape> = self.shapes.into_iter().map(|(s, _)| s).collect();
+        let passthrough =
+            shapes.iter().map(|s| materials[s.material as usize] == Material::Interface).collect();
         let scene = Scene {
             camera,
-            materials: self.materials.into_iter().map(|(_, m)| m).collect(),
-            shapes: self.shapes.into_iter().map(|(s, _)| s).collect(),
+            materials,
+            shapes,
+            passthrough,
             lights,
             light_media,
             medium_names: self.media.iter().map(|(n, _)| n.clone()).collect(),

@@ -397,7 +397,7 @@ fn kind<'a>(v: &'a Value<'_>, key: &str, kinds: &[&str]) -> Result<&'a str, Form
         return Err(error(
             &format!("{key}.type"),
             t.span().start,
-            format!("unknown type \"{name}\"; expected one of {list}"),
+            cut_quoted(&format!("unknown type \"{name}\"; expected one of {list}")),
         ));
     }
     Ok(name)

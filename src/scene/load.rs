@@ -191,20 +191,32 @@ fn coefficients(
             }
             ((Vec3::ONE - albedo) * t, albedo * t)
         }
-        (None, None, None, None) => {
-            return Err(err("sigma_s", "give sigma_a and sigma_s, or albedo and sigma_t"));
-        }
-        (Some(_), None, ..) => return Err(err("sigma_s", "sigma_a needs sigma_s")),
-        (None, Some(_), ..) => return Err(err("sigma_a", "sigma_s needs sigma_a")),
-        (None, None, Some(_), None) => return Err(err("sigma_t", "albedo needs sigma_t")),
-        (None, None, None, Some(_)) => return Err(err("albedo", "sigma_t needs albedo")),
         _ => {
-            return Err(err(
-                "albedo",
-                "give either sigma_a and sigma_s, or albedo and sigma_t, not both pairs",
-            ));
+            // Name what was written and what is allowed.
+            let written: Vec<&str> = ["sigma_a", "sigma_s", "albedo", "sigma_t"]
+                .into_iter()
+                .zip([pairs.0.is_some(), pairs.1.is_some(), pairs.2.is_some(), pairs.3.is_some()])
+                .filter_map(|(k, given)| given.then_some(k))
+                .collect();
+            let allowed = "a medium takes either sigma_a and sigma_s, or albedo and sigma_t";
+            return Err(match written[..] {
+                [] => err("sigma_s", &format!("no coefficients given: {allowed}")),
+                [one] => err(one, &format!("only {one} given: {allowed}")),
+                ref many => {
+                    err(many[0], &format!("{} given: {allowed}, not a mix", and_list(many)))
+                }
+            });
         }
     })
+}
+
+/// "a", "a and b", "a, b and c".
+fn and_list(words: &[&str]) -> String {
+    match words {
+        [] => String::new(),
+        [one] => one.to_string(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    }
 }
 
 /// A homogeneous medium.

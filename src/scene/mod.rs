@@ -120,6 +120,9 @@ pub struct Scene {
     pub(crate) materials: Vec<Material>,
     /// Shapes, indexed by a hit's `tag`.
     pub(crate) shapes: Vec<Shape>,
+    /// For each shape, whether it is a pass-through interface (material `interface`): what
+    /// [`Accel::through`](crate::accel::Accel::through) crosses.
+    pub(crate) passthrough: Vec<bool>,
     /// Light sources, area lights included.
     pub(crate) lights: Vec<Light>,
     /// The medium each light emits into, aligned with `lights`.
@@ -302,39 +305,69 @@ impl Scene {
     }
 
     /// Rejects a camera or point/spot light whose declared medium contradicts the medium
-    /// interfaces around it.
+    /// interfaces around it, and an emitting shape that names no medium on its emitting side
+    /// but lies inside one (it would emit into vacuum there: silently wrong).
     fn check_media(&self) -> Result<()> {
         let name = |m: Option<u32>| match m {
             Some(i) => format!("medium `{}`", self.medium_names[i as usize]),
             None => "vacuum".to_string(),
         };
-        let n_area = self.lights.iter().filter(|l| matches!(l, Light::Area { .. })).count();
-        let probe = |what: String, p: Vec3, declared: Option<u32>| -> Result<()> {
+        // The first probe whose medium interface contradicts `declared` at `p`.
+        let contradiction = |p: Vec3, declared: Option<u32>| -> Option<(Option<u32>, &Shape)> {
             // Tilted off the axes so that no probe runs exactly along a mesh edge (e.g. the
             // diagonal of a rectangle straight below), where a ray can slip between triangles.
             let tilt = glam::Quat::from_axis_angle(Vec3::new(0.3, 0.5, 0.8).normalize(), 0.1);
-            for d in PROBES.map(|d| tilt * d) {
-                if let Some((seen, shape)) = self.medium_seen(p, d) {
-                    if seen != declared {
+            PROBES
+                .map(|d| tilt * d)
+                .into_iter()
+                .filter_map(|d| self.medium_seen(p, d))
+                .find(|(seen, _)| *seen != declared)
+        };
+        let probe = |what: String, p: Vec3, declared: Option<u32>| -> Result<()> {
+            match contradiction(p, declared) {
+                Some((seen, shape)) => Err(invalid(
+                    what,
+                    format!(
+                        "declared {} but the medium interface of {} says this point is in {}",
+                        name(declared),
+                        shape.label,
+                        name(seen)
+                    ),
+                )),
+                None => Ok(()),
+            }
+        };
+        let cam = &self.camera;
+        probe("camera.medium".into(), cam.position, self.camera_medium)?;
+        let n_area = self.lights.iter().filter(|l| matches!(l, Light::Area { .. })).count();
+        for (i, (light, medium)) in self.lights.iter().zip(&self.light_media).enumerate() {
+            match light {
+                Light::Point { position, .. } | Light::Spot { position, .. } => {
+                    probe(format!("lights[{}].medium", i - n_area), *position, *medium)?;
+                }
+                Light::Area { shape, emitter, .. } => {
+                    let shape = &self.shapes[*shape as usize];
+                    if shape.media.is_some() {
+                        continue;
+                    }
+                    // A point just in front of the middle of the emitting surface.
+                    let (p, n) = emitter.sample_point(0.5, glam::Vec2::splat(0.5));
+                    let front = crate::math::offset_origin(p, n, n);
+                    if let Some((Some(seen), around)) = contradiction(front, None) {
+                        let medium = &self.medium_names[seen as usize];
                         return Err(invalid(
-                            what,
+                            format!("{}.exterior", shape.label),
                             format!(
-                                "declared {} but the medium interface of {} says this point is in {}",
-                                name(declared),
-                                shape.label,
-                                name(seen)
+                                "the shape emits but names no `exterior` medium, so its light would \
+                                 leave into vacuum; yet it lies in medium `{medium}` (inside {}): \
+                                 add exterior = \"{medium}\" (or interior and exterior, for a shape \
+                                 on a medium's boundary)",
+                                around.label
                             ),
                         ));
                     }
                 }
-            }
-            Ok(())
-        };
-        let cam = &self.camera;
-        probe("camera.medium".into(), cam.position, self.camera_medium)?;
-        for (i, (light, medium)) in self.lights.iter().zip(&self.light_media).enumerate() {
-            if let Light::Point { position, .. } | Light::Spot { position, .. } = light {
-                probe(format!("lights[{}].medium", i - n_area), *position, *medium)?;
+                Light::Directional { .. } => {}
             }
         }
         Ok(())

@@ -186,7 +186,7 @@ pub const MAX_OBJ_BYTES: u64 = 2 << 30;
 pub(crate) fn load_obj(path: &Path) -> Result<Mesh> {
     let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
     if !path.exists() {
-        return Err(mesh_err("no such file (OBJ paths are relative to the scene file)".into()));
+        return Err(mesh_err("no such file".into()));
     }
     let bytes = super::read_bounded(path, MAX_OBJ_BYTES, "an OBJ file")?;
     obj_from_bytes(&bytes, path)

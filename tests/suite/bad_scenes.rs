@@ -181,9 +181,12 @@ fn bad_media_name_the_key_and_line() {
     let text = base.replace("g = 0.2", "g = nan");
     expect_error(&text, &["media.fog.g"]);
     let text = base.replace("sigma_a = 0.1", "sigma_a = 0.1\nalbedo = 0.5");
-    expect_error(&text, &["media.fog", "not both"]);
+    expect_error(&text, &["media.fog.sigma_a", "sigma_a, sigma_s and albedo given", "not a mix"]);
     let text = base.replace("sigma_a = 0.1\n", "");
-    expect_error(&text, &["media.fog.sigma_a", "sigma_s needs sigma_a"]);
+    expect_error(&text, &["media.fog.sigma_s", "only sigma_s given", "either sigma_a and sigma_s"]);
+    // What the user wrote: albedo, sigma_t and sigma_s.
+    let text = base.replace("sigma_a = 0.1\n", "albedo = 0.9\nsigma_t = 2\n");
+    expect_error(&text, &["sigma_s, albedo and sigma_t given", "or albedo and sigma_t"]);
     let text = base.replace("\"homogeneous\"", "\"smoke\"");
     expect_error(&text, &["media.fog.type", "smoke"]);
     let text = base.replace("sigma_a = 0.1\nsigma_s = 0.5", "albedo = 1.5\nsigma_t = 1");

@@ -100,3 +100,203 @@ fn ctrl_c_stops_cleanly_writes_the_image_so_far_and_exits_130() {
         other => panic!("{other:?}"),
     }
 }
+
+/// The number of iterations in a haze EXR's header.
+fn exr_iterations(path: &std::path::Path) -> u64 {
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |_, _| (),
+        |_: &mut (), _, _: (f32, f32, f32, f32)| {},
+    )
+    .unwrap();
+    let attrs = &image.layer_data.attributes.other;
+    match attrs.get(&exr::meta::attribute::Text::from("haze:iterations")) {
+        Some(exr::meta::attribute::AttributeValue::Text(t)) => t.to_string().parse().unwrap(),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// After Ctrl-C, the printed resume command — run as printed, from another directory, with only
+/// a time limit added so that the test ends — continues the same output files at the same size
+/// and settings: the partial carries them. Nothing appears under the scene's default name.
+#[test]
+fn the_resume_hint_continues_the_same_outputs() {
+    let dir = temp_dir("cli-resume-hint");
+    let out = dir.join("sig.exr");
+    let scene = scene_path("cornell-box.toml");
+    let child = Command::new(env!("CARGO_BIN_EXE_haze"))
+        .args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .args(["-n", "100000", "-p", "2000", "--resolution", "48x32", "-a", "0.6", "-q"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(
+        Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap().success()
+    );
+    let output = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{err}");
+    let hint = err.lines().find_map(|l| l.strip_prefix("resume with: ")).expect(&err).to_string();
+    let words: Vec<&str> = hint.split_whitespace().collect();
+    assert_eq!(words[..2], ["haze", "render"], "{hint}");
+    assert!(hint.contains("--resume") && hint.contains("sig.hpr"), "{hint}");
+    assert!(hint.ends_with("--iterations 100000"), "the goal: {hint}");
+    let before = exr_iterations(&out);
+    let elsewhere = temp_dir("cli-resume-hint-cwd");
+    let resumed = Command::new(env!("CARGO_BIN_EXE_haze"))
+        .args(&words[1..])
+        .args(["-t", "1s", "-q"])
+        .current_dir(&elsewhere)
+        .output()
+        .unwrap();
+    let rerr = String::from_utf8_lossy(&resumed.stderr);
+    assert!(resumed.status.success(), "{hint}: {rerr}");
+    assert!(exr_iterations(&out) > before, "{rerr}");
+    assert!(rerr.contains("sig.exr"), "{rerr}");
+    assert!(
+        std::fs::read_dir(&elsewhere).unwrap().next().is_none(),
+        "wrote into the working directory"
+    );
+    let (w, h) = {
+        let img = exr::prelude::read_first_rgba_layer_from_file(
+            &out,
+            |_, _| (),
+            |_: &mut (), _, _: (f32, f32, f32, f32)| {},
+        )
+        .unwrap();
+        let size = img.layer_data.size;
+        (size.0, size.1)
+    };
+    assert_eq!((w, h), (48, 32));
+}
+
+/// A size that differs from the partial's is named as such (not as a different scene).
+#[test]
+fn a_resume_names_what_differs() {
+    let dir = temp_dir("cli-resume-differs");
+    let part = dir.join("part.hpr");
+    let scene = scene_path("cornell-box.toml");
+    let scene = scene.to_str().unwrap();
+    let (ok, err) = haze(&[
+        "render",
+        scene,
+        "-n",
+        "1..2",
+        "-p",
+        "2000",
+        "--resolution",
+        "32x32",
+        "-q",
+        "-o",
+        part.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let (ok, err) = haze(&[
+        "render",
+        scene,
+        "--resume",
+        part.to_str().unwrap(),
+        "-n",
+        "4",
+        "--resolution",
+        "40x40",
+    ]);
+    assert!(!ok);
+    assert!(err.contains("image sizes differ: 32x32 and 40x40"), "{err}");
+    let (ok, err) =
+        haze(&["render", scene, "--resume", part.to_str().unwrap(), "-n", "4", "-p", "3000"]);
+    assert!(!ok);
+    assert!(err.contains("render.photons = 2000 and 3000"), "{err}");
+}
+
+/// The old `--max-depth` flag says what replaced it, as the scene key does (not clap's advice to
+/// pass it as a value).
+#[test]
+fn the_old_max_depth_flag_points_to_max_bounces() {
+    let scene = scene_path("cornell-box.toml");
+    for args in [vec!["--max-depth", "5"], vec!["--max-depth"]] {
+        let mut all = vec!["render", scene.to_str().unwrap()];
+        all.extend(args);
+        let (ok, err) = haze(&all);
+        assert!(!ok);
+        assert!(err.contains("replaced by --max-bounces"), "{err}");
+        assert!(!err.contains("-- --max-depth"), "{err}");
+    }
+}
+
+/// Messages that leaked internals or echoed too much: an unknown shape type of 100 kB is cut, and
+/// a medium with a mix of coefficient pairs names what was written.
+#[test]
+fn messages_name_what_was_written_and_echo_little() {
+    let dir = temp_dir("cli-messages");
+    let long = "x".repeat(100_000);
+    let text = format!(
+        "[camera]\ntype = \"perspective\"\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\nresolution = [8, 8]\n\n[materials.m]\ntype = \"diffuse\"\nalbedo = 0.5\n\n[[shapes]]\ntype = \"{long}\"\nmaterial = \"m\"\n"
+    );
+    let path = dir.join("long.toml");
+    std::fs::write(&path, text).unwrap();
+    let (ok, err) = haze(&["render", path.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(err.contains("unknown type") && err.contains("(100000 characters)"), "{err}");
+    assert!(err.len() < 1000, "{} bytes of message", err.len());
+}
+
+/// An emitting shape inside a fog box that names no medium around it is refused, naming the
+/// shape and the medium (it would have emitted into vacuum: a silently different image).
+#[test]
+fn an_emitter_inside_a_medium_must_say_so() {
+    let dir = temp_dir("cli-emitter-medium");
+    let scene = |exterior: &str| {
+        format!(
+            "[camera]\ntype = \"perspective\"\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\nresolution = [8, 8]\n\n[media.fog]\ntype = \"homogeneous\"\nsigma_a = 0.1\nsigma_s = 0.5\n\n[materials.air]\ntype = \"interface\"\n\n[materials.lamp]\ntype = \"diffuse\"\nalbedo = 0.5\n\n[[shapes]]\ntype = \"box\"\nsize = [2, 2, 2]\nmaterial = \"air\"\ninterior = \"fog\"\n\n[[shapes]]\ntype = \"rectangle\"\nsize = [0.5, 0.5]\nmaterial = \"lamp\"\nemission = 4\n{exterior}\n"
+        )
+    };
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, scene("")).unwrap();
+    let (ok, err) = haze(&["render", bad.to_str().unwrap(), "-n", "1", "-p", "100", "-q"]);
+    assert!(!ok);
+    assert!(err.contains("shapes[1].exterior") && err.contains("medium `fog`"), "{err}");
+    assert!(err.contains("inside shapes[0]"), "{err}");
+    let good = dir.join("good.toml");
+    std::fs::write(&good, scene("exterior = \"fog\"")).unwrap();
+    let out = dir.join("good.exr");
+    let (ok, err) = haze(&[
+        "render",
+        good.to_str().unwrap(),
+        "-n",
+        "1",
+        "-p",
+        "100",
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+}
+
+/// `haze bench rays` measures every set and query for each thread count asked, and refuses
+/// impossible counts by name.
+#[test]
+fn bench_rays_reports_every_set_and_query() {
+    let scene = scene_path("cornell-box.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_haze"))
+        .args(["bench", "rays", scene.to_str().unwrap(), "--rays", "500", "--seconds", "0.02"])
+        .args(["--threads", "1,2"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for set in ["camera", "incoherent", "shadow"] {
+        for query in ["closest", "occlusion"] {
+            for threads in [1, 2] {
+                let row = format!("| {set} | {query} | {threads} |");
+                assert!(text.contains(&row), "no row {row}:\n{text}");
+            }
+        }
+    }
+    let (ok, err) = haze(&["bench", "rays", scene.to_str().unwrap(), "--rays", "0"]);
+    assert!(!ok && err.contains("--rays"), "{err}");
+    let (ok, err) = haze(&["bench", "rays", scene.to_str().unwrap(), "--threads", "0"]);
+    assert!(!ok && err.contains("--threads 0"), "{err}");
+}

@@ -11,12 +11,21 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 #[derive(Args)]
-#[command(allow_negative_numbers = true)]
+#[command(allow_negative_numbers = true, args_conflicts_with_subcommands = true)]
 pub(crate) struct BenchArgs {
+    #[command(subcommand)]
+    what: Option<What>,
     /// Scene file [default: scenes/cornell-box.toml].
     scene: Option<PathBuf>,
     #[command(flatten)]
     overrides: Overrides,
+}
+
+#[derive(clap::Subcommand)]
+enum What {
+    /// Ray queries alone: closest-hit and occlusion rays per second for camera, incoherent and
+    /// shadow rays, on 1 and 2 threads, beside Embree's with `--embree`.
+    Rays(crate::rays::RaysArgs),
 }
 
 /// Step times summed over iterations, and the photons stored.
@@ -42,6 +51,9 @@ impl Totals {
 }
 
 pub(crate) fn run(args: BenchArgs) -> Result<()> {
+    if let Some(What::Rays(rays)) = args.what {
+        return crate::rays::run(rays);
+    }
     let path = args.scene.unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
     let scene = args.overrides.load_scene(&path)?;
     let mut o = args.overrides.clone();

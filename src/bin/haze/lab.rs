@@ -190,6 +190,14 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
     }
     let table = validate::markdown(&rows);
     println!("{table}");
+    println!("{}", validate::summary(&rows));
+    if args.quick {
+        println!(
+            "--quick is a smoke test: with so few seeds and iterations the t-test sees only large \
+             errors, and photon estimates at their large early radii lean on their bias bounds; \
+             docs/validation.md has the full run (haze validate without --quick)."
+        );
+    }
     println!(
         "{} cases, {} seeds each, {} iterations x {} light paths per render; {} threads; {:.0} s",
         rows.len(),

@@ -5,6 +5,7 @@ mod bench;
 mod diff;
 mod lab;
 mod merge;
+mod rays;
 mod render;
 mod signals;
 
@@ -57,6 +58,19 @@ pub(crate) struct Overrides {
     /// Image size WIDTHxHEIGHT instead of the scene's (the field of view is kept).
     #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
     resolution: Option<[u32; 2]>,
+    /// The old bounce limit, replaced by `--max-bounces`: refused with a pointer to it.
+    #[arg(long = "max-depth", value_name = "D", hide = true, num_args = 0..=1,
+        default_missing_value = "", value_parser = refuse_max_depth)]
+    #[allow(dead_code)] // never set: its value parser refuses every use
+    max_depth: Option<String>,
+}
+
+/// `--max-depth` says what replaced it, as the scene key `max_depth` does.
+fn refuse_max_depth(_: &str) -> Result<String, String> {
+    Err("--max-depth was replaced by --max-bounces, which limits the scattering events along the \
+         whole light-to-camera path (max_depth limited light and eye paths separately); see \
+         `haze render --help`"
+        .into())
 }
 
 fn parse_resolution(s: &str) -> Result<[u32; 2], String> {

@@ -50,12 +50,37 @@ pub(crate) struct RenderArgs {
 /// Renders; the exit code is 0, or 128 + the signal's number if SIGINT (130) or SIGTERM (143)
 /// stopped the render (what was finished is written first).
 pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
-    let scene = args.overrides.load_scene(&args.scene)?;
-    let settings = args.overrides.settings(&scene.settings)?;
+    // A resume continues what its partial records — image size, settings and output files —
+    // unless the command line says otherwise.
+    let resumed = args.resume.as_deref().map(Partial::read).transpose()?;
+    let mut scene = args.overrides.load_scene(&args.scene)?;
+    let base = match &resumed {
+        Some(part) => {
+            if args.overrides.resolution.is_none() {
+                scene.set_resolution([part.film.width(), part.film.height()])?;
+            }
+            RenderSettings {
+                iterations: scene.settings.iterations,
+                time_limit: scene.settings.time_limit,
+                ..part.info.settings.clone()
+            }
+        }
+        None => scene.settings.clone(),
+    };
+    let settings = args.overrides.settings(&base)?;
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         bail!("--exposure must be a positive number, got {}", args.exposure);
     }
-    let output = default_output(&args.scene, args.output.clone(), "exr");
+    let output = match (&args.output, &resumed, &args.resume) {
+        (Some(o), ..) => o.clone(),
+        (None, Some(part), Some(path)) => part.output.clone().unwrap_or_else(|| path.clone()),
+        _ => default_output(&args.scene, None, "exr"),
+    };
+    // Recorded in every partial this render writes, for a later resume.
+    let recorded = output
+        .extension()
+        .is_none_or(|e| e != "hpr")
+        .then(|| std::path::absolute(&output).unwrap_or_else(|_| output.clone()));
     let partial_only = output.extension().is_some_and(|e| e == "hpr");
     match output.extension().and_then(|e| e.to_str()) {
         Some("exr") => {}
@@ -69,10 +94,10 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     }
     check_output_dir("--output", &output)?;
     let partial_path = output.with_extension("hpr");
-    let start = match (&args.resume, args.first_iteration) {
+    let start = match (resumed, args.first_iteration) {
         (Some(_), Some(_)) => bail!("--resume continues a partial render: give it no range"),
-        (Some(p), None) => {
-            let part = Partial::read(p)?;
+        (Some(part), None) => {
+            let p = args.resume.as_deref().unwrap_or(partial_path.as_path());
             if settings.iterations.is_some_and(|n| n <= part.last_iteration()) {
                 bail!(
                     "--resume {}: it already holds iterations {}..{}; ask for more with \
@@ -134,19 +159,23 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     };
     let mut last_snapshot = Instant::now();
     let mut snapshot_error = None;
+    let started = Instant::now();
     let mut on_iteration = |s: &Status| {
         update_bar(&bar, s);
         if let Some(every) = args.snapshot_every {
             if last_snapshot.elapsed().as_secs_f64() >= every {
                 last_snapshot = Instant::now();
-                if let Err(e) = write(&s.partial(), true) {
+                let mut part = s.partial();
+                part.output = recorded.clone();
+                if let Err(e) = write(&part, true) {
                     snapshot_error.get_or_insert(e);
                 }
             }
         }
     };
-    let part =
+    let mut part =
         pool.install(|| haze::render_partial(&scene, &settings, start, &mut on_iteration, stop))?;
+    part.output = recorded.clone();
     bar.finish_and_clear();
     if let Some(e) = snapshot_error {
         eprintln!("warning: a snapshot could not be written: {e}");
@@ -186,8 +215,16 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         files.join(" and ")
     );
     if interrupt.name().is_some() {
+        // The partial records the size, settings and outputs: the command needs only the goal.
+        let goal = match (settings.iterations, settings.time_limit) {
+            (Some(n), _) => format!(" --iterations {n}"),
+            (None, Some(t)) => {
+                format!(" --time {:.0}s", (t - started.elapsed().as_secs_f64()).max(1.0).ceil())
+            }
+            (None, None) => String::new(),
+        };
         eprintln!(
-            "resume with: haze render {} --resume {} (and --iterations N or --time T)",
+            "resume with: haze render {} --resume {}{goal}",
             args.scene.display(),
             partial_path.display()
         );
