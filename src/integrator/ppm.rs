@@ -366,7 +366,7 @@ fn light_use(lights: usize, paths: &[PilotPath]) -> Vec<LightUse> {
     usage
 }
 
-/// What the photons of one iteration were used for ([`PhotonMapper::photon_usage`]).
+/// What the photons of one iteration were used for ([`photon_usage`](crate::photon_usage)).
 #[derive(Clone, Debug, Default)]
 pub struct PhotonUsage {
     /// Surface and volume photons stored by the photon pass …
