@@ -59,6 +59,8 @@ impl Boundable for Primitive {
 /// A triangle as stored: obvhs's intersection layout, and optional per-vertex shading normals.
 struct StoredTriangle {
     tri: RtTriangle,
+    /// The unit geometric normal, computed once.
+    ng: Vec3,
     normals: Option<[Vec3; 3]>,
     tag: u32,
     /// Its place among the triangles given to [`Accel::build`].
@@ -116,6 +118,15 @@ const INLINE_STACK: usize = 64;
 
 /// Largest leaf of obvhs's BVH2 build: one block of four triangles, tested at once.
 const MAX_PRIMS_PER_LEAF: u32 = 4;
+
+impl Primitive {
+    /// The primitive's tag.
+    pub fn tag(&self) -> u32 {
+        match self {
+            Primitive::Triangle { tag, .. } | Primitive::Sphere { tag, .. } => *tag,
+        }
+    }
+}
 
 impl Accel {
     /// Feeds every primitive and its tag to `feed`, for a scene's fingerprint: triangles then
@@ -200,7 +211,8 @@ impl Accel {
                         };
                         let tri = RtTriangle::new(p[0].into(), p[1].into(), p[2].into());
                         let input = i;
-                        tris.push(StoredTriangle { tri, normals: *normals, tag: *tag, input });
+                        let ng = Vec3::from(tri.compute_normal()).normalize();
+                        tris.push(StoredTriangle { tri, ng, normals: *normals, tag: *tag, input });
                     }
                     let stored = &tris[start as usize..];
                     let refs: Vec<&RtTriangle> = stored.iter().map(|t| &t.tri).collect();
@@ -336,8 +348,8 @@ impl Accel {
         let p = o + d * t;
         match found {
             Found::Triangle(id) => {
-                let StoredTriangle { tri, normals, tag, .. } = &self.tris[id];
-                let ng = Vec3::from(tri.compute_normal()).normalize();
+                let StoredTriangle { tri, ng, normals, tag, .. } = &self.tris[id];
+                let ng = *ng;
                 let ns = match normals {
                     Some(n) => {
                         let ray = Ray::new(ro, rd, t_min, t_end);

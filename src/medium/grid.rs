@@ -114,7 +114,7 @@ impl DensityGrid {
     /// integers).
     #[inline]
     pub fn density_index(&self, q: Vec3) -> f32 {
-        let f = q.floor();
+        let f = floor(q);
         let i = f.as_ivec3();
         let t = q - f;
         let weights = [
@@ -375,9 +375,45 @@ fn densify(
     Ok(DensityGrid { origin: lo, dims, data, translation, voxel_size, max_density })
 }
 
+/// `v.floor()` without a call into libm (x86-64's baseline has no rounding instruction, and the
+/// call was 2.6 % of a vdb-cloud render): truncation towards zero, one down for negative
+/// non-integers. Exact for |x| < 2²³; larger values (and NaN, ±∞) are integral already and are
+/// returned as they are. −0 becomes +0, which no caller can tell apart.
+#[inline(always)]
+fn floor(v: Vec3) -> Vec3 {
+    let f = |x: f32| {
+        if x.abs() < 8_388_608.0 {
+            let t = x as i32 as f32;
+            if t > x { t - 1.0 } else { t }
+        } else {
+            x
+        }
+    };
+    Vec3::new(f(v.x), f(v.y), f(v.z))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The libm-free floor is `f32::floor`, bit for bit but for the sign of a zero: at and
+    /// around integers, over the range a grid index takes, at the limits of exactness and
+    /// beyond, and for non-finite values.
+    #[test]
+    fn floor_without_libm_is_floor() {
+        let mut xs = vec![0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, 8_388_607.5, -8_388_607.5];
+        xs.extend([8_388_608.0, -8_388_608.0, 3e9, -3e9, f32::MAX, f32::MIN]);
+        xs.extend([f32::INFINITY, f32::NEG_INFINITY, f32::MIN_POSITIVE, -f32::MIN_POSITIVE]);
+        for k in -3000..3000 {
+            let x = k as f32 * 0.37;
+            xs.extend([x, x.next_up(), x.next_down(), k as f32, (k as f32).next_down()]);
+        }
+        for x in xs {
+            let (got, want) = (floor(Vec3::splat(x)).x, x.floor());
+            assert!(got == want && (got != 0.0 || want == 0.0), "floor({x}) = {got}, not {want}");
+        }
+        assert!(floor(Vec3::splat(f32::NAN)).x.is_nan());
+    }
 
     #[test]
     fn map_names_are_found_by_their_length_prefix() {

@@ -361,6 +361,16 @@ impl SceneBuilder {
         let accel = std::panic::catch_unwind(|| Accel::build(&prims)).map_err(|_| {
             invalid("shapes".into(), "the geometry could not be organised into a BVH (degenerate?)")
         })?;
+        // The emitting shapes alone: a ray that meets none of them cannot reach an emitter, and
+        // is known to without a traversal of the whole scene (`direct::emitter_hit`).
+        let emitting: Vec<Primitive> = prims
+            .iter()
+            .filter(|p| self.shapes[p.tag() as usize].0.emission.is_some())
+            .cloned()
+            .collect();
+        let emitters = std::panic::catch_unwind(|| Accel::build(&emitting)).map_err(|_| {
+            invalid("shapes".into(), "the emitters could not be organised into a BVH (degenerate?)")
+        })?;
         let (lo, hi) = self.bounds(&prims);
         for (l, medium) in &self.lights {
             light_media.push(*medium);
@@ -384,6 +394,7 @@ impl SceneBuilder {
             bounds: (lo, hi),
             source: self.source,
             accel,
+            emitters,
             fingerprint: Default::default(),
         };
         debug_assert_eq!(scene.lights.len(), scene.light_media.len());

@@ -141,6 +141,9 @@ pub struct Scene {
     /// The scene file, if loaded from one.
     pub(crate) source: Option<PathBuf>,
     pub(crate) accel: Accel,
+    /// The shapes that emit (`Shape::emission` given), alone: a ray that meets none of them
+    /// reaches no emitter.
+    pub(crate) emitters: Accel,
     /// [`Scene::fingerprint`], computed on first use (and forgotten when the resolution changes).
     pub(crate) fingerprint: std::sync::OnceLock<[u8; 32]>,
 }
