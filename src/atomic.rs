@@ -94,11 +94,8 @@ pub fn check_writable(path: &Path) -> Result<()> {
 mod tests {
     use super::*;
 
-    fn scratch(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("haze-atomic-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
+    fn scratch(name: &str) -> crate::testing::TempDir {
+        crate::testing::temp_dir(&format!("atomic-{name}"))
     }
 
     #[test]
