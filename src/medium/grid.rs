@@ -406,7 +406,16 @@ mod tests {
         xs.extend([f32::INFINITY, f32::NEG_INFINITY, f32::MIN_POSITIVE, -f32::MIN_POSITIVE]);
         for k in -3000..3000 {
             let x = k as f32 * 0.37;
-            xs.extend([x, x.next_up(), x.next_down(), k as f32, (k as f32).next_down()]);
+            // The floats beside x and below k (x ≠ 0: one step of the bit pattern away from 0).
+            let (up, down) = (
+                |v: f32| f32::from_bits(v.to_bits() + 1),
+                |v: f32| f32::from_bits(v.to_bits() - 1),
+            );
+            let kf = k as f32;
+            xs.extend([x, kf]);
+            if x != 0.0 {
+                xs.extend([up(x), down(x), down(kf)]);
+            }
         }
         for x in xs {
             let (got, want) = (floor(Vec3::splat(x)).x, x.floor());

@@ -16,6 +16,9 @@
 //! Free flights are sampled by delta tracking (Woodcock et al. 1965) against a piecewise-constant
 //! majorant: a coarse grid holding, per cell of [`MAJORANT_CELL`]³ voxels, the largest density
 //! any point of the cell can interpolate to, walked with a 3-D DDA so empty cells cost one step.
+//! Where more than [`SPLIT_STEPS`] tentative collisions are expected in a cell, the ray's part of
+//! it is bisected under tighter bounds ([`VdbMedium::density_bounds`]; docs/theory.md), so a
+//! majorant that dwarfs the density along the ray costs few steps.
 //! Transmittance is estimated by ratio tracking (Novák et al. 2014) against the same majorant; for
 //! the beam estimate one ratio-tracking run per eye segment is kept as a step function
 //! T(0, t) = Π_{t_k < t} (1 − σ_t(t_k)/μ̄(t_k)) and looked up for every photon on the segment (each
@@ -32,14 +35,27 @@ use crate::rng::Sampler;
 use glam::{Affine3A, IVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Tentative collisions one tracking may draw along one segment. Real media never come near it
-/// (ratio tracking stops when its estimate reaches zero, delta tracking at its first real
-/// collision); a medium whose majorant dwarfs its density over long distances (σ_t = 10⁶ and
-/// more, or an overflowing μ̄ that stops t from advancing) would otherwise make one iteration take
-/// minutes or never end. A tracking that reaches the cap ends as if the segment were opaque
+/// Tentative collisions one tracking may draw along one segment: a last guard. Real media never
+/// come near it (ratio tracking stops when its estimate reaches zero, delta tracking at its first
+/// real collision, and cells whose majorant dwarfs the density along the ray are bisected); it
+/// keeps anything still unforeseen from making one iteration take minutes or never end. A tracking that reaches the cap ends as if the segment were opaque
 /// (transmittance 0, the free flight absorbed) — biased, so every such event is counted and
 /// reported ([`VdbMedium::truncated_trackings`], the render's `truncatedTrackings`).
 pub const MAX_TRACKING_STEPS: u32 = 1 << 18;
+
+/// The smallest f32 above `t ≥ 0` (`f32::next_up`, which needs Rust 1.86).
+fn next_up(t: f32) -> f32 {
+    if t <= 0.0 { f32::from_bits(1) } else { f32::from_bits(t.to_bits() + 1) }
+}
+
+/// Expected tentative collisions in one majorant cell above which the cell's part of a ray is
+/// bisected under tighter bounds ([`VdbMedium::density_bounds`]). Real media stay below it (so
+/// their random sequences are those of one rate per cell); it bounds the work where a majorant
+/// dwarfs the density, such as at the edge of a grid scaled to 10³⁰.
+const SPLIT_STEPS: f32 = 256.0;
+
+/// Largest number of bisections of one cell's piece of a ray.
+const MAX_SPLITS: u32 = 64;
 
 /// A count shared by the threads of a render (cloning starts a new count from the same value).
 #[derive(Debug, Default)]
@@ -67,6 +83,8 @@ pub struct VdbMedium {
     lo: Vec3,
     /// Trackings cut at [`MAX_TRACKING_STEPS`].
     truncated: Counter,
+    /// [`SPLIT_STEPS`] (tests lower it to bisect every cell).
+    split_steps: f32,
 }
 
 /// A transmittance step function along one segment: `(t_k, T after t_k)`.
@@ -122,6 +140,7 @@ impl VdbMedium {
             cells,
             lo,
             truncated: Counter::default(),
+            split_steps: SPLIT_STEPS,
         }
     }
 
@@ -179,12 +198,10 @@ impl VdbMedium {
         let scale = 1.0 / MAJORANT_CELL as f32;
         let oc = (self.to_index.transform_point3(o) - self.lo) * scale;
         let dc = self.to_index.transform_vector3(d) * scale;
-        crate::dda::walk(oc, dc, t_max, self.cells, |cell, a, b| {
-            let i = (cell.x + self.cells.x * (cell.y + self.cells.y * cell.z)) as usize;
-            let mu = self.majorant[i] * self.sigma_t;
-            if mu <= 0.0 {
-                return true;
-            }
+        // Index-space position along the ray, for bounds of the density on pieces of it.
+        let (oq, dq) = (self.to_index.transform_point3(o), self.to_index.transform_vector3(d));
+        // Tentative collisions at rate `mu` over [a, b); false to stop the whole walk.
+        let mut track = |mu: f32, a: f32, b: f32, s: &mut Sampler| -> bool {
             let mut t = a;
             loop {
                 steps += 1;
@@ -192,7 +209,10 @@ impl VdbMedium {
                     cut = true;
                     return false;
                 }
-                t -= (1.0 - s.next_f32()).ln() / mu;
+                // A step below t's precision (μ̄ beyond 10²⁰ or so) still moves on by one ulp:
+                // otherwise t would stay where it is, on a point of zero density, until the cap.
+                let next = t - (1.0 - s.next_f32()).ln() / mu;
+                t = if next > t { next } else { next_up(t) };
                 if t >= b {
                     return true;
                 }
@@ -200,11 +220,78 @@ impl VdbMedium {
                     return false;
                 }
             }
+        };
+        crate::dda::walk(oc, dc, t_max, self.cells, |cell, a, b| {
+            let i = (cell.x + self.cells.x * (cell.y + self.cells.y * cell.z)) as usize;
+            let mu = self.majorant[i] * self.sigma_t;
+            if mu <= 0.0 {
+                return true;
+            }
+            if mu * (b - a) <= self.split_steps {
+                return track(mu, a, b, s);
+            }
+            // Many tentative collisions expected in this cell: its majorant may dwarf the
+            // density along the ray (a dense voxel beside empty ones). Bisect the piece while
+            // a tighter bound on it (`density_bounds`) can cut the expected count, and track
+            // each part at its own rate, in order along the ray.
+            let mut pieces: smallvec::SmallVec<[(f32, f32, u32); 32]> =
+                smallvec::smallvec![(a, b, 0)];
+            while let Some((a, b, depth)) = pieces.pop() {
+                let (lo, hi) = self.density_bounds(oq + dq * a, oq + dq * b);
+                let mu = hi * self.sigma_t;
+                if mu <= 0.0 {
+                    continue;
+                }
+                let m = 0.5 * (a + b);
+                if mu * (b - a) > self.split_steps
+                    && hi > 2.0 * lo
+                    && depth < MAX_SPLITS
+                    && a < m
+                    && m < b
+                {
+                    pieces.push((m, b, depth + 1));
+                    pieces.push((a, m, depth + 1));
+                    continue;
+                }
+                if !track(mu, a, b, s) {
+                    return false;
+                }
+            }
+            true
         });
         if cut {
             self.truncated.0.fetch_add(1, Ordering::Relaxed);
         }
         !cut
+    }
+
+    /// Lower and upper bounds of the (scaled) density on the index-space segment from `q0` to
+    /// `q1`. Within one interpolation cell (between eight voxel centres) the density is
+    /// multilinear, so its extremes over the box spanned by the segment are at the box's corners;
+    /// across cells, every voxel of the cells the box touches bounds it. The upper bound is
+    /// raised by a few ulps for the rounding of trilinear lookups.
+    fn density_bounds(&self, q0: Vec3, q1: Vec3) -> (f32, f32) {
+        let (mn, mx) = (q0.min(q1), q0.max(q1));
+        let (i0, i1) = (mn.floor().as_ivec3(), mx.floor().as_ivec3());
+        let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+        if i0 == i1 {
+            for k in 0..8 {
+                let pick = |bit: i32, a: f32, b: f32| if k & bit == 0 { a } else { b };
+                let q = Vec3::new(pick(1, mn.x, mx.x), pick(2, mn.y, mx.y), pick(4, mn.z, mx.z));
+                let v = self.grid.density_index(q);
+                (lo, hi) = (lo.min(v), hi.max(v));
+            }
+        } else {
+            for z in i0.z..=i1.z + 1 {
+                for y in i0.y..=i1.y + 1 {
+                    for x in i0.x..=i1.x + 1 {
+                        let v = self.grid.voxel(IVec3::new(x, y, z));
+                        (lo, hi) = (lo.min(v), hi.max(v));
+                    }
+                }
+            }
+        }
+        (lo, hi * (1.0 + 1e-5))
     }
 
     /// The part [t0, t1] of o + t d, 0 ≤ t ≤ `t_max`, inside the grid's majorant cells (the
@@ -324,6 +411,15 @@ mod tests {
         )))
     }
 
+    /// `m` with cells bisected whenever more than `split` tentative collisions are expected in
+    /// them (1 bisects nearly every cell with a density edge in it).
+    fn with_split(mut m: Medium, split: f32) -> Medium {
+        if let Medium::Vdb(v) = &mut m {
+            v.split_steps = split;
+        }
+        m
+    }
+
     fn batches(n: usize, k: usize, seed: u64, f: impl FnMut(&mut Sampler) -> f64) -> Vec<f64> {
         batch_means(k, n, seed, f)
     }
@@ -336,22 +432,30 @@ mod tests {
     #[test]
     fn transmittance_through_the_gradient_matches_the_analytic_integral() {
         let (sigma, scale) = (1.0f32, 2.0f32);
-        let m = grid_medium("gradient.vdb", scale, Vec3::splat(0.2), Vec3::splat(sigma - 0.2));
-        let (a, b) = (0.1f64, 0.9f64);
-        let tau = (sigma * scale) as f64 * ((b * b - a * a) / 2.0 + (b - a) / 64.0);
-        let o = Vec3::new(a as f32, 0.25, 0.25);
-        let len = (b - a) as f32;
-        let ratio = batches(4000, 20, 1, |s| m.transmittance(o, Vec3::X, len, s).x as f64);
-        assert_agrees("ratio tracking", &ratio, (-tau).exp(), 0.0);
-        let passes = batches(4000, 20, 2, |s| {
-            if m.sample_free_flight(o, Vec3::X, len, s).scattered { 0.0 } else { 1.0 }
-        });
-        assert_agrees("delta tracking pass rate", &passes, (-tau).exp(), 0.0);
-        // The beam estimate's step function is a ratio-tracking estimate at every t.
-        let half = batches(4000, 20, 3, |s| m.segment(o, Vec3::X, len, s).at(len / 2.0).x as f64);
-        let mid = a + (b - a) / 2.0;
-        let tau_half = (sigma * scale) as f64 * ((mid * mid - a * a) / 2.0 + (mid - a) / 64.0);
-        assert_agrees("segment transmittance at t/2", &half, (-tau_half).exp(), 0.0);
+        let grid = grid_medium("gradient.vdb", scale, Vec3::splat(0.2), Vec3::splat(sigma - 0.2));
+        // As built, and with cells bisected under tighter bounds wherever it can help.
+        for (k, split) in [SPLIT_STEPS, 1.0].into_iter().enumerate() {
+            let m = with_split(grid.clone(), split);
+            let seed = 10 * k as u64;
+            let (a, b) = (0.1f64, 0.9f64);
+            let tau = (sigma * scale) as f64 * ((b * b - a * a) / 2.0 + (b - a) / 64.0);
+            let o = Vec3::new(a as f32, 0.25, 0.25);
+            let len = (b - a) as f32;
+            let ratio =
+                batches(4000, 20, seed + 1, |s| m.transmittance(o, Vec3::X, len, s).x as f64);
+            assert_agrees(&format!("ratio tracking, split {split}"), &ratio, (-tau).exp(), 0.0);
+            let passes = batches(4000, 20, seed + 2, |s| {
+                if m.sample_free_flight(o, Vec3::X, len, s).scattered { 0.0 } else { 1.0 }
+            });
+            assert_agrees(&format!("delta tracking, split {split}"), &passes, (-tau).exp(), 0.0);
+            // The beam estimate's step function is a ratio-tracking estimate at every t.
+            let half = batches(4000, 20, seed + 3, |s| {
+                m.segment(o, Vec3::X, len, s).at(len / 2.0).x as f64
+            });
+            let mid = a + (b - a) / 2.0;
+            let tau_half = (sigma * scale) as f64 * ((mid * mid - a * a) / 2.0 + (mid - a) / 64.0);
+            assert_agrees(&format!("segment at t/2, split {split}"), &half, (-tau_half).exp(), 0.0);
+        }
     }
 
     /// Delta tracking's free-flight distances follow the exact distribution for the gradient
@@ -386,19 +490,64 @@ mod tests {
     #[test]
     fn empty_regions_and_sharp_edges_are_tracked_without_bias() {
         let sigma = 0.25f32;
-        let m = grid_medium("holes.vdb", 1.0, Vec3::splat(0.05), Vec3::splat(sigma - 0.05));
+        let medium = grid_medium("holes.vdb", 1.0, Vec3::splat(0.05), Vec3::splat(sigma - 0.05));
         let grid = DensityGrid::load(&media("holes.vdb"), "density").unwrap();
-        for (j, k) in [(10, 10), (33, 20), (45, 45)] {
+        // As built, and with every cell that has an edge bisected under tighter bounds.
+        for (split, (j, k)) in [SPLIT_STEPS, 1.0]
+            .into_iter()
+            .flat_map(|split| [(10, 10), (33, 20), (45, 45)].map(|row| (split, row)))
+        {
+            let m = with_split(medium.clone(), split);
             let v: Vec<f64> = (0..48).map(|i| grid.voxel(IVec3::new(i, j, k)) as f64).collect();
             let tau = sigma as f64 / 32.0 * v.windows(2).map(|w| (w[0] + w[1]) / 2.0).sum::<f64>();
             let o = Vec3::new(0.0, j as f32 / 32.0, k as f32 / 32.0);
             let len = 47.0 / 32.0;
             let ratio = batches(3000, 16, 4, |s| m.transmittance(o, Vec3::X, len, s).x as f64);
-            assert_agrees(&format!("ratio tracking, row ({j}, {k})"), &ratio, (-tau).exp(), 0.0);
+            let label = format!("row ({j}, {k}), split {split}");
+            assert_agrees(&format!("ratio tracking, {label}"), &ratio, (-tau).exp(), 0.0);
             let passes = batches(3000, 16, 5, |s| {
                 if m.sample_free_flight(o, Vec3::X, len, s).scattered { 0.0 } else { 1.0 }
             });
-            assert_agrees(&format!("delta tracking, row ({j}, {k})"), &passes, (-tau).exp(), 0.0);
+            assert_agrees(&format!("delta tracking, {label}"), &passes, (-tau).exp(), 0.0);
         }
+    }
+
+    /// A grid scaled to 10³⁰ (scenes/vdb-edges.toml with `density_scale = 1e30`): every cell
+    /// with a voxel of density in it has a majorant of 10³⁰ or more, so tracking a ray through
+    /// the empty part of such a cell at that rate would need ~10³⁰ steps. With cells bisected
+    /// under tighter bounds (and steps below t's precision moving on by an ulp), no tracking
+    /// reaches the step cap, every estimate is in [0, 1], and both outcomes occur: rays through
+    /// density are opaque, rays that miss it pass.
+    #[test]
+    fn a_grid_scaled_to_1e30_is_tracked_without_reaching_the_step_cap() {
+        let m = grid_medium("holes.vdb", 1e30, Vec3::splat(0.1), Vec3::splat(0.9));
+        let Medium::Vdb(v) = &m else { unreachable!() };
+        let (mut opaque, mut clear) = (0, 0);
+        for i in 0..3000u64 {
+            let mut s = Sampler::new(9, crate::rng::Purpose::Other, 0, i);
+            // From a point in the grid's box (1.5 units a side) across it.
+            let o = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 1.5;
+            let d = crate::math::sample_uniform_sphere(s.next_2d());
+            let tr = m.transmittance(o, d, 3.0, &mut s).x;
+            assert!((0.0..=1.0).contains(&tr), "ray {i}: transmittance {tr}");
+            opaque += (tr == 0.0) as u32;
+            clear += (tr == 1.0) as u32;
+            let f = m.sample_free_flight(o, d, 3.0, &mut s);
+            assert!(f.t.is_finite() && f.weight.x.is_finite(), "ray {i}: {f:?}");
+            let steps = m.segment(o, d, 3.0, &mut s);
+            assert!((0.0..=1.0).contains(&steps.at(1.0).x), "ray {i}");
+        }
+        assert_eq!(v.truncated_trackings(), 0, "trackings cut at the step cap");
+        assert!(opaque > 100 && clear > 100, "{opaque} opaque, {clear} clear of 3000");
+        // The cap stays as the last guard: without bisection, trackings through cells with
+        // density reach it, are counted, and end opaque.
+        let unsplit = with_split(m.clone(), f32::INFINITY);
+        let Medium::Vdb(u) = &unsplit else { unreachable!() };
+        let o = Vec3::new(0.0, 10.0 / 32.0, 10.0 / 32.0);
+        for i in 0..8 {
+            let mut s = Sampler::new(10, crate::rng::Purpose::Other, 0, i);
+            assert_eq!(unsplit.transmittance(o, Vec3::X, 1.5, &mut s).x, 0.0);
+        }
+        assert!(u.truncated_trackings() > 0, "no tracking reached the cap without bisection");
     }
 }
