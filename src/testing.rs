@@ -83,37 +83,13 @@ impl Sample {
     }
 }
 
-/// A fresh, empty temporary directory for one test, removed when the test ends — unless it
-/// fails (panics), so that what it wrote can be looked at. Derefs to its path.
-pub(crate) struct TempDir(std::path::PathBuf);
-
-impl std::ops::Deref for TempDir {
-    type Target = std::path::Path;
-    fn deref(&self) -> &std::path::Path {
-        &self.0
-    }
-}
-
-impl AsRef<std::path::Path> for TempDir {
-    fn as_ref(&self) -> &std::path::Path {
-        &self.0
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-}
+#[path = "../tests/shared/temp_dir.rs"]
+mod temp;
+pub(crate) use temp::TempDir;
 
 /// A fresh, empty temporary directory for one test (see [`TempDir`]).
 pub(crate) fn temp_dir(test: &str) -> TempDir {
-    let d = std::env::temp_dir().join(format!("haze-unit-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    TempDir(d)
+    TempDir::new("unit", test)
 }
 
 /// Mean and standard error of the mean of `xs`.

@@ -30,9 +30,10 @@ enum Crossing {
 /// multiplying the transmittance of the media it crosses (exact for homogeneous media, ratio
 /// tracking for grids), to the first other surface or the end. `stop`: a shadow ray, blocked by
 /// any other surface (the traversal stops at the first it finds); otherwise the nearest other
-/// surface is the result if `wanted` accepts it, and a ray that meets none is `Blocked`. One traversal finds the interfaces and what
-/// lies beyond (instead of a closest-hit query from each interface to the next), and no
-/// transmittance is estimated for a ray that ends blocked or on an unwanted surface.
+/// surface is the result if `wanted` accepts it, and a ray that meets none is `Blocked`. One
+/// traversal finds the interfaces and what lies beyond (instead of a closest-hit query from each
+/// interface to the next), and no transmittance is estimated for a ray that ends blocked, on an
+/// unwanted surface, or (looking for a surface) on none.
 #[allow(clippy::too_many_arguments)]
 fn cross(
     scene: &Scene,

@@ -38,8 +38,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// Tentative collisions one tracking may draw along one segment: a last guard. Real media never
 /// come near it (ratio tracking stops when its estimate reaches zero, delta tracking at its first
 /// real collision, and cells whose majorant dwarfs the density along the ray are bisected); it
-/// keeps anything still unforeseen from making one iteration take minutes or never end. A tracking that reaches the cap ends as if the segment were opaque
-/// (transmittance 0, the free flight absorbed) — biased, so every such event is counted and
+/// keeps anything still unforeseen from making one iteration take minutes or never end. A
+/// tracking that reaches the cap ends as if the segment were opaque (transmittance 0, the free
+/// flight absorbed) — biased, so every such event is counted and
 /// reported ([`VdbMedium::truncated_trackings`], the render's `truncatedTrackings`).
 pub const MAX_TRACKING_STEPS: u32 = 1 << 18;
 
@@ -194,12 +195,11 @@ impl VdbMedium {
     ) -> bool {
         let mut steps = 0u32;
         let mut cut = false;
-        // Coarse-cell coordinates: cell k spans [k, k + 1).
-        let scale = 1.0 / MAJORANT_CELL as f32;
-        let oc = (self.to_index.transform_point3(o) - self.lo) * scale;
-        let dc = self.to_index.transform_vector3(d) * scale;
-        // Index-space position along the ray, for bounds of the density on pieces of it.
+        // The ray in index space (for bounds of the density on pieces of it), and in coarse-cell
+        // coordinates, where cell k spans [k, k + 1).
         let (oq, dq) = (self.to_index.transform_point3(o), self.to_index.transform_vector3(d));
+        let scale = 1.0 / MAJORANT_CELL as f32;
+        let (oc, dc) = ((oq - self.lo) * scale, dq * scale);
         // Tentative collisions at rate `mu` over [a, b); false to stop the whole walk.
         let mut track = |mu: f32, a: f32, b: f32, s: &mut Sampler| -> bool {
             let mut t = a;

@@ -358,9 +358,13 @@ impl SceneBuilder {
         };
         let (prims, mut lights, mut light_media) = self.primitives_and_area_lights()?;
         // obvhs asserts on some degenerate inputs; contain that rather than crash.
-        let accel = std::panic::catch_unwind(|| Accel::build(&prims)).map_err(|_| {
-            invalid("shapes".into(), "the geometry could not be organised into a BVH (degenerate?)")
-        })?;
+        let bvh = |prims: &[Primitive], what: &str| {
+            std::panic::catch_unwind(|| Accel::build(prims)).map_err(|_| {
+                let message = format!("the {what} could not be organised into a BVH (degenerate?)");
+                invalid("shapes".into(), message)
+            })
+        };
+        let accel = bvh(&prims, "geometry")?;
         // The emitting shapes alone: a ray that meets none of them cannot reach an emitter, and
         // is known to without a traversal of the whole scene (`direct::emitter_hit`).
         let emitting: Vec<Primitive> = prims
@@ -368,9 +372,7 @@ impl SceneBuilder {
             .filter(|p| self.shapes[p.tag() as usize].0.emission.is_some())
             .cloned()
             .collect();
-        let emitters = std::panic::catch_unwind(|| Accel::build(&emitting)).map_err(|_| {
-            invalid("shapes".into(), "the emitters could not be organised into a BVH (degenerate?)")
-        })?;
+        let emitters = bvh(&emitting, "emitters")?;
         let (lo, hi) = self.bounds(&prims);
         for (l, medium) in &self.lights {
             light_media.push(*medium);

@@ -36,37 +36,13 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
 }
 
-/// A fresh, empty temporary directory for one test, removed when the test ends — unless it
-/// fails (panics), so that what it wrote can be looked at. Derefs to its path.
-pub struct TempDir(std::path::PathBuf);
-
-impl std::ops::Deref for TempDir {
-    type Target = std::path::Path;
-    fn deref(&self) -> &std::path::Path {
-        &self.0
-    }
-}
-
-impl AsRef<std::path::Path> for TempDir {
-    fn as_ref(&self) -> &std::path::Path {
-        &self.0
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-}
+#[path = "../shared/temp_dir.rs"]
+mod temp;
+pub use temp::TempDir;
 
 /// A fresh, empty temporary directory for one test (see [`TempDir`]).
 pub fn temp_dir(test: &str) -> TempDir {
-    let d = std::env::temp_dir().join(format!("haze-test-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    TempDir(d)
+    TempDir::new("test", test)
 }
 
 /// A seeded random stream for the tests' own random choices (xoshiro256++, portable).
