@@ -9,6 +9,7 @@
 # 2), WIDTH (default 96; the height keeps each scene's aspect ratio), EXTRA (more render flags for
 # both, e.g. "--integrator path" or "--volume-estimate point"). Needs Python 3 with the
 # OpenEXR and numpy packages (pip install OpenEXR numpy), found as $PYTHON (default python3).
+# OLD_BIN: a haze binary already built from BASE, used instead of building BASE in a worktree.
 # Exit status 0 if every image is identical, 1 otherwise.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,11 +30,15 @@ python=${PYTHON:-python3}
 
 work=$(mktemp -d)
 trap 'git worktree remove --force "$work/base" >/dev/null 2>&1 || true; rm -rf "$work"' EXIT
-git worktree add --detach "$work/base" "$base" >/dev/null
-echo "building $base and the working tree (release)"
-(cd "$work/base" && cargo build --release --quiet)
+if [ -n "${OLD_BIN:-}" ]; then
+    old=$OLD_BIN
+else
+    git worktree add --detach "$work/base" "$base" >/dev/null
+    echo "building $base (release)"
+    (cd "$work/base" && cargo build --release --quiet)
+    old="$work/base/target/release/haze"
+fi
 cargo build --release --quiet
-old="$work/base/target/release/haze"
 new=target/release/haze
 
 status=0

@@ -134,12 +134,13 @@ struct PhotonEye<'a, F> {
 impl<F> PhotonEye<'_, F> {
     /// The photons an estimate at the path's next vertex may gather: a photon of k events,
     /// gathered there (one more event) after the path's specular bounces, keeps the whole path
-    /// within the bounce limit; the hybrid leaves light straight from the lights (k = 0) to
-    /// next-event estimation.
+    /// within the bounce limit. The hybrid leaves light straight from the lights (k = 0) to
+    /// next-event estimation: its photon pass stores no such photon (`PhotonPass::skip_direct`),
+    /// so every stored photon is gathered — those a medium emitted from their first event on,
+    /// since next-event estimation does not sample emitting media.
     fn bounces(&self, path: &EyePath) -> BounceRange {
         let room = path.max_bounces.saturating_sub(1 + path.depth);
-        let min = if self.pass.hybrid { 1 } else { 0 };
-        BounceRange { min, max: room.min(u16::MAX as u32) as u16 }
+        BounceRange { min: 0, max: room.min(u16::MAX as u32) as u16 }
     }
 
     /// The hybrid's single scattering along the segment (0 for photon mapping alone, whose

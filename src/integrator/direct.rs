@@ -159,10 +159,8 @@ fn emitter_hit(
     if !scene.emitters.occluded(o, d, f32::INFINITY) {
         return None;
     }
-    let emission =
-        |hit: &Hit| scene.shapes[hit.tag as usize].emission.filter(|_| (-d).dot(hit.ng) > 0.0);
-    match cross(scene, o, d, f32::INFINITY, medium, false, |h| emission(h).is_some(), s) {
-        Crossing::Surface(hit, tr) => Some((hit, tr, emission(&hit)?)),
+    match cross(scene, o, d, f32::INFINITY, medium, false, |h| scene.le(h, -d).is_some(), s) {
+        Crossing::Surface(hit, tr) => Some((hit, tr, scene.le(&hit, -d)?)),
         Crossing::Reached(_) | Crossing::Blocked => None,
     }
 }
@@ -217,7 +215,9 @@ pub(crate) fn emitted(
     s: &mut Sampler,
 ) -> Rgb {
     match emitter_hit(scene, from.p, wi, medium, s) {
-        Some((hit, tr, le)) => weight * tr * le * emission_weight(lights, &hit, -wi, from, pdf_dir),
+        Some((hit, tr, le)) => {
+            weight * tr * le * emission_weight(scene, lights, &hit, -wi, from, pdf_dir)
+        }
         None => Rgb::ZERO,
     }
 }
@@ -226,6 +226,7 @@ pub(crate) fn emitted(
 /// sampled with density `pdf_dir` at `from`, against next-event estimation at `from` (with the
 /// probabilities next-event estimation chooses lights with there).
 pub(crate) fn emission_weight(
+    scene: &Scene,
     lights: &LightSampler,
     hit: &Hit,
     wo: Vec3,
@@ -235,7 +236,7 @@ pub(crate) fn emission_weight(
     if lights.area_light(hit.tag).is_none() {
         return 1.0;
     }
-    let p_l = lights.pdf_li(hit.tag, from, hit.p, wo.dot(hit.ng));
+    let p_l = lights.pdf_li(&scene.lights, hit.tag, from, hit.p, wo.dot(hit.ng));
     if p_l <= 0.0 {
         return 1.0;
     }

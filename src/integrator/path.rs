@@ -138,20 +138,20 @@ impl EyeVisitor for PathEye<'_> {
             return Next::Stop;
         }
         let x = o + d * flight.t;
-        path.beta *= m.sigma_s(x);
         let ps = m.phase().sample(d, path.s.next_2d());
+        path.beta *= m.sigma_s(x) * (ps.value / ps.pdf);
         // Direct light at x was counted along the segment: an emitter this direction reaches
         // does not count again.
         self.count_emission = false;
         self.scattered_from = None;
-        Next::Scatter { o: x, d: ps.d_out }
+        Next::Scatter { o: x, d: ps.wi }
     }
 
     fn emission(&mut self, path: &EyePath, hit: &Hit, le: Rgb) -> Rgb {
         if self.count_emission {
             path.beta * le
         } else if let Some((from, pdf_dir)) = &self.scattered_from {
-            path.beta * le * emission_weight(self.lights, hit, -path.d, from, *pdf_dir)
+            path.beta * le * emission_weight(path.scene, self.lights, hit, -path.d, from, *pdf_dir)
         } else {
             Rgb::ZERO
         }

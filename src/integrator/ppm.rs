@@ -76,8 +76,11 @@ impl PhotonMapper {
             volume_dimension: settings.volume_dimension,
             lights: LightSampler::new(&scene.lights, scene.shapes.len()),
             // The original PPM, a comparison mode, stays the classic method.
+            // Guiding learns over the lights' emission; photons of emitting media are not
+            // guided, and with them in the scene nothing is.
             guiding: settings.photon_guiding == PhotonGuiding::Visibility
-                && settings.progression == Progression::Probabilistic,
+                && settings.progression == Progression::Probabilistic
+                && !scene.has_emissive_media(),
             pilot_done: false,
             guide: None,
             usage: Vec::new(),

@@ -202,8 +202,9 @@ fn in_scattered(
     if !lights.has_area_lights() {
         return sigma_s * (l * ratio);
     }
-    let wi = phase.sample(d, s.next_2d()).d_out;
-    let pdf = phase.eval(d, wi);
+    let ps = phase.sample(d, s.next_2d());
     let from = Receiver::medium(x);
-    sigma_s * (l * ratio + emitted(scene, lights, &from, wi, pdf, Rgb::ONE, Some(id), s))
+    let weight = Rgb::splat(ps.value / ps.pdf);
+    let found = emitted(scene, lights, &from, ps.wi, ps.pdf, weight, Some(id), s);
+    sigma_s * (l * ratio + found)
 }

@@ -170,7 +170,11 @@ fn through_medium(
     let id = path.medium?;
     let scene = path.scene;
     let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-    match visitor.medium(path, &scene.media[id as usize], id, t_max) {
+    let m = &scene.media[id as usize];
+    // Emission along the segment, seen straight on: every integrator counts it in full (nothing
+    // else samples it from here). Nothing is drawn for a medium that does not emit.
+    path.l += path.beta * m.emitted(path.o, path.d, t_max, &mut path.s);
+    match visitor.medium(path, m, id, t_max) {
         Next::Stop => Some(Step::Stop),
         Next::Scatter { o, d } => {
             (path.o, path.d) = (o, d);
@@ -191,10 +195,8 @@ fn at_surface(
     let scene = path.scene;
     let wo = -path.d;
     let shape = &scene.shapes[hit.tag as usize];
-    if let Some(le) = shape.emission {
-        if wo.dot(hit.ng) > 0.0 {
-            path.l += visitor.emission(path, hit, le);
-        }
+    if let Some(le) = scene.le(hit, wo) {
+        path.l += visitor.emission(path, hit, le);
     }
     let material = &scene.materials[shape.material as usize];
     match material {
@@ -243,6 +245,7 @@ fn to_emitter(path: &mut EyePath, visitor: &mut impl EyeVisitor, crossings: &mut
         if let Some(id) = path.medium {
             let t_max = hit.map_or(f32::INFINITY, |h| h.t);
             let m = &scene.media[id as usize];
+            path.l += path.beta * m.emitted(path.o, path.d, t_max, &mut path.s);
             path.beta *= m.transmittance(path.o, path.d, t_max, &mut path.s);
             if path.beta.max_element() <= 0.0 {
                 return;
@@ -251,10 +254,8 @@ fn to_emitter(path: &mut EyePath, visitor: &mut impl EyeVisitor, crossings: &mut
         let Some(hit) = hit else { return };
         let wo = -path.d;
         let shape = &scene.shapes[hit.tag as usize];
-        if let Some(le) = shape.emission {
-            if wo.dot(hit.ng) > 0.0 {
-                path.l += visitor.emission(path, &hit, le);
-            }
+        if let Some(le) = scene.le(&hit, wo) {
+            path.l += visitor.emission(path, &hit, le);
         }
         if scene.materials[shape.material as usize] != Material::Interface {
             return;

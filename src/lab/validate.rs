@@ -10,7 +10,8 @@
 //! Cases: the white furnace, Beer–Lambert transmittance through a homogeneous slab and through
 //! a linear-gradient grid, the semi-infinite half-space (Chandrasekhar's H-function), and an
 //! isotropic point source in an infinite medium (single-scattered and full radiance from the
-//! Green's function) — with both medium kinds where a grid can stand in (a constant or gradient
+//! Green's function), and emitting media (an emitting, absorbing slab; a furnace whose walls and
+//! medium emit alike) — with both medium kinds where a grid can stand in (a constant or gradient
 //! VDB), both volume estimators, and the reference path tracer.
 
 use super::analytic::{
@@ -251,6 +252,7 @@ fn cases(media_dir: &Path) -> Vec<Case> {
     out.extend(grazing_single_scattering_cases());
     out.push(slab_single_scattering_case());
     out.extend(point_source_cases());
+    out.extend(emission_cases(media_dir));
     out
 }
 
@@ -511,6 +513,91 @@ fn point_source_cases() -> Vec<Case> {
             setup_bias: reference * 1e-4,
             max_bounces,
             volume_radius: [0.05, 0.05],
+            photons_scale: 1,
+        });
+    }
+    out
+}
+
+/// Emitting media: an emitting, absorbing slab seen through (L = L_e (1 − e^{−τ}), for any
+/// density profile along the ray), and a furnace whose walls and medium emit the same L_e.
+fn emission_cases(media_dir: &Path) -> Vec<Case> {
+    let mut out = Vec::new();
+    // An emitting, purely absorbing slab against a black background, seen orthographically:
+    // L = ∫₀^d σ_a L_e e^{−σ_a t} dt = L_e (1 − e^{−τ}).
+    let (thickness, sigma_a, le) = (1.2, 1.5, 2.0f64);
+    let tau: f64 = sigma_a * thickness;
+    let reference = le * -(-tau).exp_m1();
+    // The ray offset at each face skips ≤ 10⁻⁵ (1 + |p|) ≤ 3·10⁻⁵ of the slab: σ_a L_e per unit
+    // length of emission lost at most there.
+    let offset = le * sigma_a * 2.0 * 3e-5;
+    out.push(Case {
+        name: format!("emitting absorbing slab (τ {tau:.2})"),
+        medium: "homogeneous",
+        toml: format!(
+            "[camera]\ntype = \"orthographic\"\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nheight = 0.5\nresolution = [6, 6]\n\n[media.slab]\ntype = \"homogeneous\"\nsigma_a = {sigma_a}\nsigma_s = 0\nemission = {le}\n\n[materials.air]\ntype = \"interface\"\n\n[materials.black]\ntype = \"diffuse\"\nalbedo = 0\n\n[[shapes]]\ntype = \"box\"\nsize = [4, 4, {thickness}]\nmaterial = \"air\"\ninterior = \"slab\"\n\n[[shapes]]\ntype = \"rectangle\"\nsize = [4, 4]\nmaterial = \"black\"\ntransform = {{ translate = [0, 0, -1] }}\n"
+        ),
+        reference,
+        bias: Box::new(|_, _| 0.0),
+        setup_bias: offset,
+        max_bounces: 10_000,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
+    });
+    // The same through the gradient grid (density x + 1/64 along x): L_e (1 − e^{−τ}) with τ
+    // the optical depth along the ray.
+    let (scale, a, b) = (2.0, 0.1, 0.9);
+    let tau = optical_depth_linear(sigma_a * scale, 1.0, 1.0 / 64.0, a, b);
+    let reference = le * -(-tau).exp_m1();
+    out.push(Case {
+        name: format!("emitting absorbing gradient (τ {tau:.4})"),
+        medium: "vdb",
+        toml: format!(
+            "[camera]\ntype = \"orthographic\"\nposition = [3, 0.25, 0.25]\nlook_at = [0, 0.25, 0.25]\nheight = 0.2\nresolution = [6, 6]\n\n[media.grad]\ntype = \"vdb\"\nfile = \"{}\"\ndensity_scale = {scale}\nsigma_a = {sigma_a}\nsigma_s = 0\nemission = {le}\n\n[materials.air]\ntype = \"interface\"\n\n[[shapes]]\ntype = \"box\"\nsize = [{}, 0.3, 0.3]\nmaterial = \"air\"\ninterior = \"grad\"\ntransform = {{ translate = [{}, 0.25, 0.25] }}\n",
+            toml_path(&media_dir.join("gradient.vdb")),
+            b - a,
+            (a + b) / 2.0
+        ),
+        reference,
+        bias: Box::new(|_, _| 0.0),
+        setup_bias: le * sigma_a * scale * 2.0 * 3e-5,
+        max_bounces: 10_000,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
+    });
+    // A furnace with emission: walls emitting L_e around a medium that absorbs (σ_a 0.5) and
+    // emits the same L_e, and scatters (σ_s 1.5, g 0.5): the radiance is L_e everywhere, as in
+    // the white furnace (what the medium absorbs it emits again). Photons leave the walls and
+    // the medium; the hybrid's next-event estimation sees the walls only.
+    let camera = "[camera]\ntype = \"perspective\"\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 20\nresolution = [8, 8]\nmedium = \"fog\"\n\n";
+    let cos_max = ((20f64.to_radians() / 2.0).tan() * 2f64.sqrt()).atan().cos();
+    // The white furnace's kernel bias at the walls (σ_t 2; the scattered source σ_s L_e = 1.5 is
+    // below the σ_t L_e = 2 it was derived for).
+    let sigma = 2.0;
+    let furnace_bias = move |r: f64| sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp();
+    for (medium, fog) in [
+        ("homogeneous", "type = \"homogeneous\"".to_string()),
+        (
+            "vdb",
+            format!(
+                "type = \"vdb\"\nfile = \"{}\"\ntransform = {{ scale = {}, translate = [-1, -1, -1] }}",
+                toml_path(&media_dir.join("box.vdb")),
+                2.0 / (15.0 / 16.0)
+            ),
+        ),
+    ] {
+        out.push(Case {
+            name: "emitting furnace (σ_a 0.5, σ_s 1.5, g 0.5)".into(),
+            medium,
+            toml: format!(
+                "{camera}[media.fog]\n{fog}\nsigma_a = 0.5\nsigma_s = 1.5\ng = 0.5\nemission = 1\n\n{}",
+                furnace_walls(1.0)
+            ),
+            reference: 1.0,
+            bias: Box::new(move |_, r| furnace_bias(r)),
+            setup_bias: 0.0,
+            max_bounces: 10_000,
+            volume_radius: [0.02, 0.02],
             photons_scale: 1,
         });
     }

@@ -1,6 +1,7 @@
 //! Participating media: one closed set that the integrators use without knowing the kind. Every
 //! medium answers the same questions: sample a free-flight distance, the transmittance along a
-//! ray, σ_s at a point, and its phase function.
+//! ray, σ_a, σ_s and the emitted radiance L_e at a point, the emission reaching a point along a
+//! ray, and its phase function.
 //!
 //! ```toml
 //! [media.fog]
@@ -8,8 +9,10 @@
 //! sigma_a = [0.01, 0.01, 0.01]  # absorption, 1/length …
 //! sigma_s = [0.5, 0.5, 0.5]     # … and scattering; or give `albedo` and `sigma_t` (extinction)
 //! g = 0.3                       # Henyey–Greenstein mean cosine; 0 = isotropic (default)
+//! emission = [2.0, 1.0, 0.5]    # emitted radiance L_e (default 0): the source is σ_a · L_e
 //! ```
 
+pub mod blackbody;
 pub mod grid;
 pub mod homogeneous;
 pub mod phase;
@@ -177,7 +180,17 @@ impl Medium {
     /// Feeds what defines the medium to `feed` (see [`crate::scene::Scene::fingerprint`]).
     pub(crate) fn fingerprint(&self, feed: &mut dyn FnMut(&[u8])) {
         match self {
-            Medium::Homogeneous(h) => feed(format!("{h:?}").as_bytes()),
+            Medium::Homogeneous(h) => {
+                // As the derived Debug printed it before media could emit (fingerprints of
+                // scenes without emission stay as they were).
+                let (a, s, phase) = (h.sigma_a, h.sigma_s, h.phase);
+                let text =
+                    format!("Homogeneous {{ sigma_a: {a:?}, sigma_s: {s:?}, phase: {phase:?} }}");
+                feed(text.as_bytes());
+                if h.emission != Rgb::ZERO {
+                    feed(format!("emission {:?}", h.emission).as_bytes());
+                }
+            }
             Medium::Vdb(v) => v.fingerprint(feed),
         }
     }
@@ -233,6 +246,46 @@ impl Medium {
                 (t_max > 0.0 && h.sigma_s.max_element() > 0.0).then_some((0.0, t_max))
             }
             Medium::Vdb(v) => v.extent(o, d, t_max),
+        }
+    }
+
+    /// True if the medium emits light somewhere (a source σ_a L_e that is not zero everywhere).
+    pub fn emits(&self) -> bool {
+        match self {
+            Medium::Homogeneous(h) => (h.sigma_a * h.emission).max_element() > 0.0,
+            Medium::Vdb(v) => v.emits(),
+        }
+    }
+
+    /// Emitted radiance L_e at `p`: the medium adds σ_a(p) L_e(p) per unit length.
+    #[inline]
+    pub fn le(&self, p: Vec3) -> Rgb {
+        match self {
+            Medium::Homogeneous(h) => h.emission,
+            Medium::Vdb(v) => v.le(p),
+        }
+    }
+
+    /// Absorption coefficient at `p`.
+    #[inline]
+    pub fn sigma_a(&self, p: Vec3) -> Rgb {
+        match self {
+            Medium::Homogeneous(h) => h.sigma_a,
+            Medium::Vdb(v) => v.sigma_a(p),
+        }
+    }
+
+    /// The emitted radiance reaching `o` along `o + t d`, 0 < t < `t_max`:
+    /// ∫ T(0, t) σ_a L_e dt, exact for homogeneous media, an unbiased estimate for grids; zero
+    /// (and no random numbers drawn) if the medium does not emit.
+    #[inline]
+    pub fn emitted(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> Rgb {
+        if !self.emits() {
+            return Rgb::ZERO;
+        }
+        match self {
+            Medium::Homogeneous(h) => h.emitted(t_max),
+            Medium::Vdb(v) => v.emitted(o, d, t_max, s),
         }
     }
 

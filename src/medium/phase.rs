@@ -16,11 +16,16 @@ pub struct HenyeyGreenstein {
     pub g: f32,
 }
 
-/// A sampled scattering direction (sampling is exact: its density is [`HenyeyGreenstein::eval`]).
+/// A sampled scattering direction with what callers need to weigh it, so that none evaluates the
+/// phase function again.
 #[derive(Clone, Copy, Debug)]
 pub struct PhaseSample {
     /// Outgoing direction of travel.
-    pub d_out: Vec3,
+    pub wi: Vec3,
+    /// p(d_in, wi).
+    pub value: f32,
+    /// Solid-angle density of `wi` (equal to `value`: Henyey–Greenstein sampling is exact).
+    pub pdf: f32,
 }
 
 impl HenyeyGreenstein {
@@ -53,8 +58,11 @@ impl HenyeyGreenstein {
         let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
         let phi = 2.0 * PI * u.y;
         let local = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
-        let d_out = Frame::new(d_in).to_world(local).normalize();
-        PhaseSample { d_out }
+        let wi = Frame::new(d_in).to_world(local).normalize();
+        // From the direction as returned (not from cos θ before rounding), so that a caller's
+        // own evaluation of `wi` gives the same number.
+        let value = self.eval(d_in, wi);
+        PhaseSample { wi, value, pdf: value }
     }
 }
 
@@ -80,8 +88,9 @@ mod tests {
             test.run(
                 |s| {
                     let ps = hg.sample(d_in, s.next_2d());
-                    cosines.push(ps.d_out.dot(d_in) as f64);
-                    Some(Sample::Direction(ps.d_out))
+                    cosines.push(ps.wi.dot(d_in) as f64);
+                    assert!(ps.value == hg.eval(d_in, ps.wi) && ps.pdf == ps.value);
+                    Some(Sample::Direction(ps.wi))
                 },
                 |d| hg.eval(d_in, d.direction()) as f64,
             );

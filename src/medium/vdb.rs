@@ -55,6 +55,14 @@ fn next_up(t: f32) -> f32 {
 /// dwarfs the density, such as at the edge of a grid scaled to 10³⁰.
 const SPLIT_STEPS: f32 = 256.0;
 
+/// The emission estimate ([`VdbMedium::emitted`]) draws its tentative collisions at this
+/// multiple of the majorant: any rate at or above σ_t keeps ratio tracking unbiased, and more
+/// points score more of the emission along a ray (in the fire of scenes/fire.toml a ray crosses
+/// the flame with about three collisions at the majorant's rate). Measured there (100×100, 4
+/// iterations, 6 seeds): per-pixel relative variance in the flame 0.147 at rate 1, 0.045 at 8,
+/// for 1.1× the render time. It costs only on segments through emitting grids.
+const EMISSION_RATE: f32 = 8.0;
+
 /// Largest number of bisections of one cell's piece of a ray.
 const MAX_SPLITS: u32 = 64;
 
@@ -77,6 +85,12 @@ pub struct VdbMedium {
     /// σ_s and σ_t per unit of (scaled) density.
     sigma_s: Rgb,
     sigma_t: f32,
+    /// σ_a / σ_t per channel (zero where σ_t is): σ_a at a point is this times σ_t there.
+    absorption_share: Rgb,
+    /// Emitted radiance everywhere the grid absorbs (the source σ_a L_e follows the density).
+    emission: Rgb,
+    /// Blackbody emission from a temperature grid, added to `emission`.
+    temperature: Option<Box<TemperatureField>>,
     phase: HenyeyGreenstein,
     /// Majorant densities per coarse cell (x fastest), covering index space from `lo`.
     majorant: Vec<f32>,
@@ -86,6 +100,69 @@ pub struct VdbMedium {
     truncated: Counter,
     /// [`SPLIT_STEPS`] (tests lower it to bisect every cell).
     split_steps: f32,
+}
+
+/// Blackbody emission from a temperature grid, as pbrt-v4's `nanovdb` medium defines it: with
+/// T'(p) = (T(p) − offset) · scale, L_e(p) = blackbody_scale · B̂(T'(p)) where T' exceeds `cutoff`
+/// and zero elsewhere (B̂: the peak-normalised Planck spectrum as linear sRGB, see
+/// [`super::blackbody`]).
+#[derive(Clone, Debug)]
+pub struct TemperatureField {
+    /// The temperature grid (trilinear like the density).
+    pub grid: DensityGrid,
+    /// Scene → the temperature grid's index space.
+    pub to_index: Affine3A,
+    /// T' = (T − offset) · scale.
+    pub scale: f32,
+    /// Subtracted before scaling.
+    pub offset: f32,
+    /// No emission at or below this T' (K).
+    pub cutoff: f32,
+    /// Multiplies the blackbody colour.
+    pub blackbody_scale: f32,
+}
+
+impl TemperatureField {
+    /// The field of `grid` (placed in the scene by `to_scene`, like the density grid).
+    pub fn new(
+        grid: DensityGrid,
+        to_scene: Affine3A,
+        scale: f32,
+        offset: f32,
+        cutoff: f32,
+        blackbody_scale: f32,
+    ) -> Self {
+        let to_index = index_from_grid(&grid) * to_scene.inverse();
+        Self { grid, to_index, scale, offset, cutoff, blackbody_scale }
+    }
+
+    /// T' at a voxel of the temperature grid.
+    #[inline]
+    pub(crate) fn scaled(&self, t: f32) -> f32 {
+        (t - self.offset) * self.scale
+    }
+
+    /// Emitted radiance at temperature `t` of the grid (before `offset` and `scale`).
+    #[inline]
+    pub(crate) fn le_of(&self, t: f32) -> Rgb {
+        let t = self.scaled(t);
+        if t > self.cutoff {
+            super::blackbody::blackbody(t) * self.blackbody_scale
+        } else {
+            Rgb::ZERO
+        }
+    }
+
+    /// Emitted radiance at scene point `p`.
+    #[inline]
+    pub fn le(&self, p: Vec3) -> Rgb {
+        self.le_of(self.grid.density_index(self.to_index.transform_point3(p)))
+    }
+}
+
+/// Index space of `grid` from its world space.
+fn index_from_grid(grid: &DensityGrid) -> Affine3A {
+    Affine3A::from_scale(grid.voxel_size.recip()) * Affine3A::from_translation(-grid.translation)
 }
 
 /// A transmittance step function along one segment: `(t_k, T after t_k)`.
@@ -106,9 +183,7 @@ impl VdbMedium {
             *d *= density_scale;
         }
         grid.max_density *= density_scale;
-        let index_from_grid = Affine3A::from_scale(grid.voxel_size.recip())
-            * Affine3A::from_translation(-grid.translation);
-        let to_index = index_from_grid * to_scene.inverse();
+        let to_index = index_from_grid(&grid) * to_scene.inverse();
         // Trilinear lookups are non-zero for q in (origin − 1, origin + dims): cover it.
         let lo = (grid.origin - IVec3::ONE).as_vec3();
         let cells = (grid.dims + IVec3::splat(2) + IVec3::splat(MAJORANT_CELL - 1)) / MAJORANT_CELL;
@@ -131,11 +206,15 @@ impl VdbMedium {
         }
         // Grey by construction (checked when the scene is built); average away f32 rounding.
         let sigma_t = (sigma_a + sigma_s).element_sum() / 3.0;
+        let absorption_share = if sigma_t > 0.0 { sigma_a / sigma_t } else { Rgb::ZERO };
         Self {
             grid,
             to_index,
             sigma_s,
             sigma_t,
+            absorption_share,
+            emission: Rgb::ZERO,
+            temperature: None,
             phase,
             majorant,
             cells,
@@ -143,6 +222,76 @@ impl VdbMedium {
             truncated: Counter::default(),
             split_steps: SPLIT_STEPS,
         }
+    }
+
+    /// The medium emitting radiance `emission` wherever it absorbs, plus blackbody radiance from
+    /// `temperature` if given: L_e(p) = emission + temperature's L_e(p), the source σ_a(p) L_e(p).
+    pub fn with_emission(mut self, emission: Rgb, temperature: Option<TemperatureField>) -> Self {
+        self.emission = emission;
+        self.temperature = temperature.map(Box::new);
+        self
+    }
+
+    /// True if the medium can emit (it absorbs somewhere, and some emission is given).
+    pub fn emits(&self) -> bool {
+        self.absorption_share.max_element() > 0.0
+            && self.grid.max_density > 0.0
+            && (self.emission.max_element() > 0.0 || self.temperature.is_some())
+    }
+
+    /// Emitted radiance L_e at `p` (the medium adds σ_a(p) L_e(p) per unit length).
+    #[inline]
+    pub fn le(&self, p: Vec3) -> Rgb {
+        match &self.temperature {
+            Some(t) => self.emission + t.le(p),
+            None => self.emission,
+        }
+    }
+
+    /// σ_a at `p`.
+    #[inline]
+    pub fn sigma_a(&self, p: Vec3) -> Rgb {
+        self.absorption_share * (self.sigma_t * self.density(p))
+    }
+
+    /// The grid's density (scaled), its map from scene to index space, and the majorant cells
+    /// (count and index-space origin), for samplers of the medium's emission.
+    pub(crate) fn layout(&self) -> (&DensityGrid, Affine3A, IVec3, Vec3) {
+        (&self.grid, self.to_index, self.cells, self.lo)
+    }
+
+    /// σ_a per unit of (scaled) density.
+    pub(crate) fn sigma_a_per_density(&self) -> Rgb {
+        self.absorption_share * self.sigma_t
+    }
+
+    /// The temperature field, if any.
+    pub(crate) fn temperature(&self) -> Option<&TemperatureField> {
+        self.temperature.as_deref()
+    }
+
+    /// The emission colour given for the whole grid.
+    pub(crate) fn emission(&self) -> Rgb {
+        self.emission
+    }
+
+    /// An unbiased estimate of ∫₀^t_max T(0, t) σ_a(x_t) L_e(x_t) dt along `o + t d`: the
+    /// emitted radiance reaching `o`. Ratio tracking that scores σ_a L_e / μ̄ times its running
+    /// transmittance at every tentative collision (the tentative collisions are a Poisson process
+    /// of rate μ̄, so the expected sum is ∫ μ̄ T σ_a L_e / μ̄ dt). A walk cut at the step cap
+    /// keeps what it scored (counted, as every cut).
+    pub fn emitted(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> Rgb {
+        let mut tr = 1.0f32;
+        let mut sum = Rgb::ZERO;
+        self.tentative(o, d, t_max, EMISSION_RATE, s, |t, sigma_t, mu, _| {
+            if sigma_t > 0.0 {
+                let p = o + d * t;
+                sum += self.absorption_share * (tr * sigma_t / mu) * self.le(p);
+                tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
+            }
+            tr > 0.0
+        });
+        sum
     }
 
     /// The phase function.
@@ -174,6 +323,22 @@ impl VdbMedium {
         let t =
             format!("{:?} {:?} {:?} {:?}", self.to_index, self.sigma_s, self.sigma_t, self.phase);
         feed(t.as_bytes());
+        // Emission, only where given (fingerprints of media without it stay as they were).
+        if self.emits() {
+            feed(format!("emission {:?} {:?}", self.absorption_share, self.emission).as_bytes());
+            if let Some(t) = &self.temperature {
+                let g = &t.grid;
+                let what = (g.origin, g.dims, g.translation, g.voxel_size, t.to_index);
+                feed(
+                    format!(
+                        "temperature {what:?} {:?}",
+                        (t.scale, t.offset, t.cutoff, t.blackbody_scale)
+                    )
+                    .as_bytes(),
+                );
+                g.data.iter().for_each(|d| feed(&d.to_le_bytes()));
+            }
+        }
     }
 
     /// Trackings so far cut at [`MAX_TRACKING_STEPS`] (zero in any sensible medium).
@@ -181,15 +346,16 @@ impl VdbMedium {
         self.truncated.0.load(Ordering::Relaxed)
     }
 
-    /// Draws the tentative collisions of o + t d, t ∈ [0, t_max), at the rate of the majorant
-    /// μ̄ of each majorant cell (empty cells cost one step), calling `f(t, σ_t(t), μ̄, sampler)` at
-    /// each; `f` returns `false` to stop. Returns `false` if the walk was cut at
+    /// Draws the tentative collisions of o + t d, t ∈ [0, t_max), at `rate` times the majorant
+    /// μ̄ of each majorant cell (empty cells cost one step), calling `f(t, σ_t(t), rate·μ̄,
+    /// sampler)` at each; `f` returns `false` to stop. Returns `false` if the walk was cut at
     /// [`MAX_TRACKING_STEPS`] (counted).
     fn tentative(
         &self,
         o: Vec3,
         d: Vec3,
         t_max: f32,
+        rate: f32,
         s: &mut Sampler,
         mut f: impl FnMut(f32, f32, f32, &mut Sampler) -> bool,
     ) -> bool {
@@ -228,7 +394,7 @@ impl VdbMedium {
                 return true;
             }
             if mu * (b - a) <= self.split_steps {
-                return track(mu, a, b, s);
+                return track(mu * rate, a, b, s);
             }
             // Many tentative collisions expected in this cell: its majorant may dwarf the
             // density along the ray (a dense voxel beside empty ones). Bisect the piece while
@@ -253,7 +419,7 @@ impl VdbMedium {
                     pieces.push((a, m, depth + 1));
                     continue;
                 }
-                if !track(mu, a, b, s) {
+                if !track(mu * rate, a, b, s) {
                     return false;
                 }
             }
@@ -321,7 +487,7 @@ impl VdbMedium {
     pub fn sample_free_flight(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> FreeFlight {
         let mut hit: Option<(f32, f32)> = None;
         let mut last = 0.0;
-        let complete = self.tentative(o, d, t_max, s, |t, sigma_t, mu, s| {
+        let complete = self.tentative(o, d, t_max, 1.0, s, |t, sigma_t, mu, s| {
             last = t;
             if s.next_f32() * mu < sigma_t {
                 hit = Some((t, sigma_t));
@@ -344,7 +510,7 @@ impl VdbMedium {
     /// Ratio tracking estimate of the transmittance over [0, t_max).
     pub fn transmittance(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> Rgb {
         let mut tr = 1.0f32;
-        let complete = self.tentative(o, d, t_max, s, |_, sigma_t, mu, _| {
+        let complete = self.tentative(o, d, t_max, 1.0, s, |_, sigma_t, mu, _| {
             tr *= 1.0 - sigma_t / mu;
             tr > 0.0
         });
@@ -364,7 +530,7 @@ impl VdbMedium {
     ) -> TransmittanceSteps {
         let mut steps = TransmittanceSteps::new();
         let mut tr = 1.0f32;
-        let complete = self.tentative(o, d, t_max, s, |t, sigma_t, mu, _| {
+        let complete = self.tentative(o, d, t_max, 1.0, s, |t, sigma_t, mu, _| {
             tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
             steps.push((t, tr));
             tr > 0.0
@@ -389,6 +555,7 @@ pub fn steps_at(steps: &[(f32, f32)], t: f32) -> f32 {
 mod tests {
     use super::super::Medium;
     use super::*;
+    use crate::medium::blackbody::blackbody;
     use crate::rng::Sampler;
     use crate::testing::{ChiSquare, Domain, Sample, assert_agrees, batch_means};
     use glam::DVec2;
@@ -455,6 +622,92 @@ mod tests {
             let mid = a + (b - a) / 2.0;
             let tau_half = (sigma * scale) as f64 * ((mid * mid - a * a) / 2.0 + (mid - a) / 64.0);
             assert_agrees(&format!("segment at t/2, split {split}"), &half, (-tau_half).exp(), 0.0);
+        }
+    }
+
+    /// `m` emitting `le` wherever it absorbs, and blackbody light from `temperature`.
+    fn emitting(m: Medium, le: Rgb, temperature: Option<TemperatureField>) -> Medium {
+        match m {
+            Medium::Vdb(v) => Medium::Vdb(Box::new(v.with_emission(le, temperature))),
+            other => other,
+        }
+    }
+
+    /// Emission along a ray through the gradient grid, where σ_a and σ_t are both proportional
+    /// to the density: ∫ T σ_a L_e dt = L_e (σ_a/σ_t)(1 − e^{−τ}) whatever the profile. The
+    /// ratio-tracking estimate is unbiased: t-tests over batch means per channel, no bias
+    /// allowance, with cells as built and bisected everywhere.
+    #[test]
+    fn emission_through_the_gradient_matches_the_analytic_integral() {
+        let (sigma_a, sigma_s) = (Vec3::new(0.3, 0.5, 0.7), Vec3::new(0.7, 0.5, 0.3));
+        let le = Rgb::new(2.0, 1.0, 0.5);
+        let grid = emitting(grid_medium("gradient.vdb", 2.0, sigma_a, sigma_s), le, None);
+        assert!(grid.emits());
+        let (a, b) = (0.1f64, 0.9f64);
+        let tau = 2.0 * ((b * b - a * a) / 2.0 + (b - a) / 64.0);
+        let o = Vec3::new(a as f32, 0.25, 0.25);
+        for (k, split) in [SPLIT_STEPS, 1.0].into_iter().enumerate() {
+            let m = with_split(grid.clone(), split);
+            for c in 0..3 {
+                let seed = 40 + 3 * k as u64 + c as u64;
+                let got =
+                    batches(4000, 20, seed, |s| m.emitted(o, Vec3::X, (b - a) as f32, s)[c] as f64);
+                let want = (le[c] * sigma_a[c]) as f64 * -(-tau).exp_m1();
+                assert_agrees(&format!("emission, channel {c}, split {split}"), &got, want, 0.0);
+            }
+        }
+        // A grid that does not absorb cannot emit, and draws nothing.
+        let clear = emitting(grid_medium("gradient.vdb", 2.0, Vec3::ZERO, Vec3::ONE), le, None);
+        assert!(!clear.emits());
+        let mut s = Sampler::new(1, crate::rng::Purpose::Camera, 0, 0);
+        assert_eq!(clear.emitted(o, Vec3::X, 0.8, &mut s), Rgb::ZERO);
+    }
+
+    /// A temperature grid's emission: L_e(p) = scale_bb · B̂((T(p) − offset) · scale) above the
+    /// cutoff and zero below it, read trilinearly from its own grid; and the emission along a ray
+    /// through a grid with it agrees with a quadrature of ∫ T σ_a L_e dt (t-test over batch
+    /// means; the quadrature's error, 4000 midpoint steps of a smooth integrand, is below 10⁻⁶
+    /// of the result and allowed for).
+    #[test]
+    fn temperature_grids_emit_blackbody_light() {
+        let raw = DensityGrid::load(&media("gradient.vdb"), "density").unwrap();
+        // T = 3000 (x + 1/64 − 0.05): below the 500 K cutoff where x < 0.2.
+        let field = TemperatureField::new(raw, Affine3A::IDENTITY, 3000.0, 0.05, 500.0, 0.5);
+        let density = |x: f64| x + 1.0 / 64.0;
+        let temperature = |x: f64| ((density(x) - 0.05) * 3000.0) as f32;
+        for x in [0.1f32, 0.15, 0.25, 0.5, 0.85] {
+            let p = Vec3::new(x, 0.25, 0.25);
+            let t = temperature(x as f64);
+            let want = if t > 500.0 { blackbody(t) * 0.5 } else { Rgb::ZERO };
+            let got = field.le(p);
+            assert!(
+                (got - want).abs().max_element() <= 1e-4 * want.max_element().max(1e-6),
+                "{x}: {got} vs {want}"
+            );
+        }
+        let (sigma_a, sigma_s) = (Vec3::splat(0.6), Vec3::splat(0.4));
+        let m =
+            emitting(grid_medium("gradient.vdb", 2.0, sigma_a, sigma_s), Rgb::ZERO, Some(field));
+        assert!(m.emits());
+        let (a, b) = (0.1f64, 0.9f64);
+        let n = 4000;
+        let mut want = [0.0f64; 3];
+        for i in 0..n {
+            let x = a + (b - a) * (i as f64 + 0.5) / n as f64;
+            let tau = 2.0 * ((x * x - a * a) / 2.0 + (x - a) / 64.0);
+            let le = blackbody(temperature(x)) * 0.5;
+            let le = if temperature(x) > 500.0 { le } else { Rgb::ZERO };
+            for c in 0..3 {
+                want[c] +=
+                    (-tau).exp() * 0.6 * 2.0 * density(x) * le[c] as f64 * (b - a) / n as f64;
+            }
+        }
+        let o = Vec3::new(a as f32, 0.25, 0.25);
+        for (c, want) in want.into_iter().enumerate() {
+            let got = batches(4000, 20, 60 + c as u64, |s| {
+                m.emitted(o, Vec3::X, (b - a) as f32, s)[c] as f64
+            });
+            assert_agrees(&format!("blackbody emission, channel {c}"), &got, want, 1e-6 * want);
         }
     }
 

@@ -56,7 +56,7 @@ pub struct VolumePhoton {
 /// light between next-event estimation and photons both come down to such a range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct BounceRange {
-    /// Fewest events before arrival (1 when next-event estimation covers direct light).
+    /// Fewest events before arrival.
     pub min: u16,
     /// Most events before arrival.
     pub max: u16,

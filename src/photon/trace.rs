@@ -94,7 +94,7 @@ const ALWAYS_STORED: f32 = 32.0;
 /// limit. Memory per iteration stays within light paths × a small constant, and paths of up to
 /// 32 events — nearly every path outside dense, high-albedo media — keep every photon.
 fn stored(path: &mut LightPath, pass: &PhotonPass) -> Option<f32> {
-    if pass.skip_direct && path.bounces == 0 {
+    if pass.skip_direct && path.bounces == 0 && !path.from_medium {
         return None;
     }
     let q = (ALWAYS_STORED / (path.bounces as f32 + 1.0)).min(1.0);
@@ -120,6 +120,9 @@ struct LightPath {
     /// interfaces are not events), and pass-through crossings.
     bounces: u32,
     crossings: u32,
+    /// Emitted by a medium: its light is not what next-event estimation gathers, so even its
+    /// first event stores a photon in the hybrid.
+    from_medium: bool,
 }
 
 /// What the photon did at a step.
@@ -139,9 +142,43 @@ pub(crate) enum Emitting<'a> {
     Guided(&'a EmissionGuide),
 }
 
-/// Traces one light path, storing its photons in `out`.
-fn trace_path(scene: &Scene, emitting: Emitting, pass: &PhotonPass, index: u64, out: &mut Photons) {
+/// Traces one light path, storing its photons in `out`. With emitting media in the scene
+/// (`p_media` > 0) the path starts in one of them with probability `p_media`, their share of the
+/// total power, and a light's photon carries its power over the lights' share; without, nothing
+/// is drawn for that choice.
+fn trace_path(
+    scene: &Scene,
+    emitting: Emitting,
+    p_media: f32,
+    pass: &PhotonPass,
+    index: u64,
+    out: &mut Photons,
+) {
     let mut s = Sampler::new(pass.seed, Purpose::Photon, pass.iteration, index);
+    let mut p_lights = 1.0;
+    if p_media > 0.0 {
+        if s.next_f32() < p_media {
+            if pass.record {
+                // Keeps the paths' numbering; no guide learns from media (see `ppm.rs`).
+                out.paths.push((u32::MAX, Vec2::ZERO));
+            }
+            let Some(e) = scene.emissive_media.sample(scene, &mut s) else { return };
+            let path = LightPath {
+                index: index as u32,
+                s,
+                o: e.p,
+                d: e.d,
+                beta: e.beta / p_media,
+                medium: Some(e.medium),
+                bounces: 0,
+                crossings: 0,
+                from_medium: true,
+            };
+            follow(scene, pass, path, out);
+            return;
+        }
+        p_lights = 1.0 - p_media;
+    }
     let u_light = s.next_f32();
     let (li, guided_pick) = match emitting {
         Emitting::ByPower(lights) => (lights.pick_emission(u_light).0, false),
@@ -166,14 +203,20 @@ fn trace_path(scene: &Scene, emitting: Emitting, pass: &PhotonPass, index: u64, 
         out.paths.push((li as u32, *u));
     }
     let e = light.sample_emission(u_pick, u_pos, u_dir);
-    let beta: Rgb = e.beta / p_light;
+    let beta: Rgb = e.beta / (p_light * p_lights);
     if beta.max_element() <= 0.0 {
         return;
     }
     let o = if e.n == Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
     let medium = scene.light_media[li];
     let index = index as u32;
-    let mut path = LightPath { index, s, o, d: e.d, beta, medium, bounces: 0, crossings: 0 };
+    let (bounces, crossings, from_medium) = (0, 0, false);
+    let path = LightPath { index, s, o, d: e.d, beta, medium, bounces, crossings, from_medium };
+    follow(scene, pass, path, out);
+}
+
+/// Follows a light path from its start to its end, storing its photons in `out`.
+fn follow(scene: &Scene, pass: &PhotonPass, mut path: LightPath, out: &mut Photons) {
     loop {
         let hit = scene.intersect(path.o, path.d, f32::INFINITY);
         match collide(scene, pass, &mut path, hit.as_ref(), out) {
@@ -228,13 +271,14 @@ fn collide(
         return Step::Stop;
     }
     let ps = m.phase().sample(d, path.s.next_2d());
-    // Phase sampling is exact, so the scattering weight is σ_s alone; the path survives with the
-    // albedo (the throughput before the flight against after the scattering), so absorbing and
-    // dense media end paths where they absorb light.
+    // The scattering weight is σ_s times the phase sample's value over its pdf (1 for exact
+    // sampling); the path survives with the albedo (the throughput before the flight against
+    // after the scattering), so absorbing and dense media end paths where they absorb light.
+    let survival = survival * (ps.value / ps.pdf);
     let Some(b) = roulette(before, survival, path.s.next_f32()) else {
         return Step::Stop;
     };
-    (path.beta, path.o, path.d) = (b, p, ps.d_out);
+    (path.beta, path.o, path.d) = (b, p, ps.wi);
     Step::Continue
 }
 
@@ -302,9 +346,12 @@ pub(crate) fn trace_photons(
     out: &mut Photons,
 ) -> bool {
     out.clear();
-    if lights.is_empty() {
+    if lights.is_empty() && scene.emissive_media.is_empty() {
         return true;
     }
+    // Emitting media's share of the photons: their share of the power.
+    let media = scene.emissive_media.power();
+    let p_media = if media > 0.0 { media / (media + lights.total_power()) } else { 0.0 };
     let emitting = match guide {
         Some(g) => Emitting::Guided(g),
         None => Emitting::ByPower(lights),
@@ -319,7 +366,7 @@ pub(crate) fn trace_photons(
             let mut local = Photons::default();
             let end = ((c + 1) * CHUNK).min(pass.paths);
             for index in c * CHUNK..end {
-                trace_path(scene, emitting, pass, pass.first_path + index, &mut local);
+                trace_path(scene, emitting, p_media, pass, pass.first_path + index, &mut local);
             }
             Some(local)
         })

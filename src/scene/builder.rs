@@ -5,7 +5,7 @@
 use super::camera::{Camera, CameraDesc};
 use super::describe::{
     GeometryDesc, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc, MediumId, MediumRef,
-    ShapeDesc, Transform,
+    ShapeDesc, TemperatureDesc, Transform,
 };
 use super::light::{self, Emitter, Light};
 use super::material::Material;
@@ -18,7 +18,7 @@ use crate::medium::Medium;
 use crate::medium::grid::DensityGrid;
 use crate::medium::homogeneous::Homogeneous;
 use crate::medium::phase::HenyeyGreenstein;
-use crate::medium::vdb::VdbMedium;
+use crate::medium::vdb::{TemperatureField, VdbMedium};
 use crate::settings::RenderSettings;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -186,21 +186,33 @@ impl SceneBuilder {
             return Err(invalid(format!("media.{name}"), "more than 65535 media"));
         }
         let key = |k: &str| format!("media.{name}.{k}");
-        let (sigma_a, sigma_s, g) = match &desc {
-            MediumDesc::Homogeneous { sigma_a, sigma_s, g }
-            | MediumDesc::Vdb { sigma_a, sigma_s, g, .. } => (*sigma_a, *sigma_s, *g),
+        let (sigma_a, sigma_s, g, emission) = match &desc {
+            MediumDesc::Homogeneous { sigma_a, sigma_s, g, emission }
+            | MediumDesc::Vdb { sigma_a, sigma_s, g, emission, .. } => {
+                (*sigma_a, *sigma_s, *g, *emission)
+            }
         };
         check_color(key("sigma_a"), sigma_a, None)?;
         check_color(key("sigma_s"), sigma_s, None)?;
+        check_color(key("emission"), emission, None)?;
+        let emits = emission.max_element() > 0.0
+            || matches!(&desc, MediumDesc::Vdb { temperature: Some(_), .. });
+        if emits && sigma_a.max_element() <= 0.0 {
+            return Err(invalid(
+                key("emission"),
+                "a medium emits σ_a · L_e per unit length, and this one has σ_a = 0: give it \
+                 absorption (or albedo below 1)",
+            ));
+        }
         if !(g > -1.0 && g < 1.0) {
             return Err(invalid(key("g"), format!("must lie strictly between -1 and 1, got {g}")));
         }
         let phase = HenyeyGreenstein { g };
         let medium = match desc {
             MediumDesc::Homogeneous { .. } => {
-                Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase })
+                Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase, emission })
             }
-            MediumDesc::Vdb { file, grid, density_scale, transform, .. } => {
+            MediumDesc::Vdb { file, grid, density_scale, transform, temperature, .. } => {
                 let t = sigma_a + sigma_s;
                 // Equal up to f32 rounding (albedo · σ_t + (1 − albedo) · σ_t need not sum
                 // exactly).
@@ -223,18 +235,39 @@ impl SceneBuilder {
                 let grid = DensityGrid::load(&file, &grid)
                     .map_err(|e| invalid(key("file"), self.relative_note(&file, e.to_string())))?;
                 let to_scene = transform.matrix();
-                Medium::Vdb(Box::new(VdbMedium::new(
-                    grid,
-                    to_scene,
-                    density_scale,
-                    sigma_a,
-                    sigma_s,
-                    phase,
-                )))
+                let temperature = match temperature {
+                    Some(t) => Some(self.temperature_field(name, &file, &t, to_scene)?),
+                    None => None,
+                };
+                let medium = VdbMedium::new(grid, to_scene, density_scale, sigma_a, sigma_s, phase);
+                Medium::Vdb(Box::new(medium.with_emission(emission, temperature)))
             }
         };
         self.media.push((name.to_string(), medium));
         Ok(MediumId(self.media.len() as u32 - 1))
+    }
+
+    /// The temperature field of grid medium `name` (file `file`), checked.
+    fn temperature_field(
+        &self,
+        name: &str,
+        file: &std::path::Path,
+        t: &TemperatureDesc,
+        to_scene: glam::Affine3A,
+    ) -> Result<TemperatureField> {
+        let key = |k: &str| format!("media.{name}.temperature.{k}");
+        for (k, v) in [("scale", t.scale), ("offset", t.offset), ("cutoff", t.cutoff)] {
+            if !v.is_finite() {
+                return Err(invalid(key(k), format!("must be finite, got {v}")));
+            }
+        }
+        if !(t.blackbody_scale.is_finite() && t.blackbody_scale >= 0.0) {
+            let message = format!("must be finite and non-negative, got {}", t.blackbody_scale);
+            return Err(invalid(key("blackbody_scale"), message));
+        }
+        let grid = DensityGrid::load(file, &t.grid)
+            .map_err(|e| invalid(key("grid"), self.relative_note(file, e.to_string())))?;
+        Ok(TemperatureField::new(grid, to_scene, t.scale, t.offset, t.cutoff, t.blackbody_scale))
     }
 
     fn medium_id(&self, key: String, m: &MediumRef) -> Result<MediumId> {
@@ -382,16 +415,24 @@ impl SceneBuilder {
         let shapes: Vec<Shape> = self.shapes.into_iter().map(|(s, _)| s).collect();
         let passthrough =
             shapes.iter().map(|s| materials[s.material as usize] == Material::Interface).collect();
+        let mut area_light = vec![None; shapes.len()];
+        for (i, l) in lights.iter().enumerate() {
+            if let Light::Area { shape, .. } = l {
+                area_light[*shape as usize] = Some(i as u32);
+            }
+        }
         let scene = Scene {
             camera,
             materials,
             shapes,
             passthrough,
+            area_light,
             lights,
             light_media,
             medium_names: self.media.iter().map(|(n, _)| n.clone()).collect(),
             media: self.media.into_iter().map(|(_, m)| m).collect(),
             camera_medium,
+            emissive_media: Default::default(),
             settings: self.settings,
             bounds: (lo, hi),
             source: self.source,
@@ -401,6 +442,8 @@ impl SceneBuilder {
         };
         debug_assert_eq!(scene.lights.len(), scene.light_media.len());
         scene.check_media()?;
+        let mut scene = scene;
+        scene.emissive_media = super::light::media::EmissiveMedia::new(&scene);
         Ok(scene)
     }
 

@@ -146,6 +146,8 @@ pub enum MediumDesc {
         sigma_s: Rgb,
         /// Mean cosine of the phase function, in (−1, 1).
         g: f32,
+        /// Emitted radiance L_e (the source is σ_a L_e).
+        emission: Rgb,
     },
     /// Coefficients proportional to a density grid read from an OpenVDB file.
     Vdb {
@@ -161,16 +163,56 @@ pub enum MediumDesc {
         sigma_s: Rgb,
         /// Mean cosine of the phase function.
         g: f32,
+        /// Emitted radiance L_e wherever the grid absorbs (the source σ_a L_e follows the
+        /// density).
+        emission: Rgb,
+        /// Blackbody emission from a temperature grid, added to `emission`.
+        temperature: Option<TemperatureDesc>,
         /// Places the grid's world space in the scene.
         transform: Transform,
     },
+}
+
+/// Blackbody emission of a grid medium from a temperature grid of the same file, as pbrt-v4's
+/// `nanovdb` medium defines it: T' = (T − offset) · scale, and where T' > cutoff the emitted
+/// radiance is blackbody_scale · B̂(T'), B̂ the Planck spectrum normalised to 1 at its peak, as
+/// linear sRGB (docs/scene-format.md).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TemperatureDesc {
+    /// The float grid holding temperatures (default `temperature`).
+    pub grid: String,
+    /// Multiplies the temperature after `offset` is subtracted (default 1).
+    pub scale: f32,
+    /// Subtracted from the grid's values (default 0).
+    pub offset: f32,
+    /// No emission at or below this temperature, in kelvin after offset and scale (default 100).
+    pub cutoff: f32,
+    /// Multiplies the blackbody colour (default 1).
+    pub blackbody_scale: f32,
+}
+
+impl Default for TemperatureDesc {
+    fn default() -> Self {
+        Self {
+            grid: "temperature".into(),
+            scale: 1.0,
+            offset: 0.0,
+            cutoff: 100.0,
+            blackbody_scale: 1.0,
+        }
+    }
 }
 
 impl MediumDesc {
     /// A homogeneous medium from its absorption and scattering coefficients (isotropic until
     /// [`Self::g`]).
     pub fn homogeneous(sigma_a: impl IntoRgb, sigma_s: impl IntoRgb) -> Self {
-        MediumDesc::Homogeneous { sigma_a: sigma_a.into_rgb(), sigma_s: sigma_s.into_rgb(), g: 0.0 }
+        MediumDesc::Homogeneous {
+            sigma_a: sigma_a.into_rgb(),
+            sigma_s: sigma_s.into_rgb(),
+            g: 0.0,
+            emission: Rgb::ZERO,
+        }
     }
 
     /// A grid medium from an OpenVDB file's `density` grid, with σ_a = 0 and σ_s = 1 per unit
@@ -183,8 +225,29 @@ impl MediumDesc {
             sigma_a: Rgb::ZERO,
             sigma_s: Rgb::ONE,
             g: 0.0,
+            emission: Rgb::ZERO,
+            temperature: None,
             transform: Transform::default(),
         }
+    }
+
+    /// Sets the emitted radiance L_e (the medium adds σ_a L_e per unit length; zero by default).
+    pub fn emission(mut self, le: impl IntoRgb) -> Self {
+        let le = le.into_rgb();
+        match &mut self {
+            MediumDesc::Homogeneous { emission, .. } | MediumDesc::Vdb { emission, .. } => {
+                *emission = le
+            }
+        }
+        self
+    }
+
+    /// Grid media: blackbody emission from a temperature grid (see [`TemperatureDesc`]).
+    pub fn temperature(mut self, t: TemperatureDesc) -> Self {
+        if let MediumDesc::Vdb { temperature, .. } = &mut self {
+            *temperature = Some(t);
+        }
+        self
     }
 
     /// Sets the Henyey–Greenstein mean cosine.

@@ -108,6 +108,17 @@ pub struct HomogeneousDef {
     pub albedo: Option<ColorDef>,
     pub sigma_t: Option<ColorDef>,
     pub g: Option<f32>,
+    pub emission: Option<ColorDef>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TemperatureDef {
+    pub grid: Option<String>,
+    pub scale: Option<f32>,
+    pub offset: Option<f32>,
+    pub cutoff: Option<f32>,
+    pub blackbody_scale: Option<f32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -123,6 +134,8 @@ pub struct VdbDef {
     pub albedo: Option<ColorDef>,
     pub sigma_t: Option<ColorDef>,
     pub g: Option<f32>,
+    pub emission: Option<ColorDef>,
+    pub temperature: Option<TemperatureDef>,
     #[serde(default)]
     pub transform: TransformDef,
 }

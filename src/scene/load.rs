@@ -3,7 +3,8 @@
 
 use super::camera::{CameraDesc, Lens};
 use super::describe::{
-    GeometryDesc, LightDesc, LightKind, MaterialRef, MediumDesc, MediumRef, ShapeDesc, Transform,
+    GeometryDesc, LightDesc, LightKind, MaterialRef, MediumDesc, MediumRef, ShapeDesc,
+    TemperatureDesc, Transform,
 };
 use super::format::{
     self, CameraDef, ColorDef, HomogeneousDef, LightDef, MaterialDef, MediumDef, ScaleDef,
@@ -223,7 +224,8 @@ fn and_list(words: &[&str]) -> String {
 fn homogeneous(d: &HomogeneousDef, key: &str, places: &Places) -> Result<MediumDesc> {
     let (sigma_a, sigma_s) =
         coefficients((d.sigma_a, d.sigma_s, d.albedo, d.sigma_t), key, places)?;
-    Ok(MediumDesc::Homogeneous { sigma_a, sigma_s, g: d.g.unwrap_or(0.0) })
+    let emission = d.emission.map_or(Rgb::ZERO, color);
+    Ok(MediumDesc::Homogeneous { sigma_a, sigma_s, g: d.g.unwrap_or(0.0), emission })
 }
 
 /// A grid medium; its file is relative to the scene file.
@@ -237,6 +239,17 @@ fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium
         sigma_a,
         sigma_s,
         g: d.g.unwrap_or(0.0),
+        emission: d.emission.map_or(Rgb::ZERO, color),
+        temperature: d.temperature.as_ref().map(|t| {
+            let default = TemperatureDesc::default();
+            TemperatureDesc {
+                grid: t.grid.clone().unwrap_or(default.grid),
+                scale: t.scale.unwrap_or(default.scale),
+                offset: t.offset.unwrap_or(default.offset),
+                cutoff: t.cutoff.unwrap_or(default.cutoff),
+                blackbody_scale: t.blackbody_scale.unwrap_or(default.blackbody_scale),
+            }
+        }),
         transform: transform(&d.transform),
     })
 }

@@ -14,7 +14,7 @@ pub use builder::{MAX_TESSELLATION, SceneBuilder};
 pub use camera::{CameraDesc, Lens, MAX_PIXELS};
 pub use describe::{
     GeometryDesc, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc, MediumId,
-    MediumRef, ShapeDesc, Transform,
+    MediumRef, ShapeDesc, TemperatureDesc, Transform,
 };
 pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
@@ -125,6 +125,8 @@ pub struct Scene {
     pub(crate) passthrough: Vec<bool>,
     /// Light sources, area lights included.
     pub(crate) lights: Vec<Light>,
+    /// For each shape, the index of its area light, if it emits.
+    pub(crate) area_light: Vec<Option<u32>>,
     /// The medium each light emits into, aligned with `lights`.
     pub(crate) light_media: Vec<Option<u32>>,
     /// Participating media, indexed by medium ids.
@@ -133,6 +135,8 @@ pub struct Scene {
     pub(crate) medium_names: Vec<String>,
     /// The medium around the camera.
     pub(crate) camera_medium: Option<u32>,
+    /// The media that emit, as a source of photons.
+    pub(crate) emissive_media: light::media::EmissiveMedia,
     /// Render settings from the scene file (`[render]`) or the builder; a render takes settings
     /// of its own, usually these with changes.
     pub settings: RenderSettings,
@@ -292,6 +296,31 @@ const PROBES: [Vec3; 14] = [
 ];
 
 impl Scene {
+    /// The radiance an emitting shape sends from `hit` in direction `w` (away from it), if the
+    /// shape is an area light and `w` leaves its front side ([`Light::le`]).
+    #[inline]
+    pub(crate) fn le(&self, hit: &crate::accel::Hit, w: Vec3) -> Option<crate::math::Rgb> {
+        let li = self.area_light.get(hit.tag as usize).copied().flatten()?;
+        let le = self.lights[li as usize].le(hit.ng, w);
+        (le != crate::math::Rgb::ZERO).then_some(le)
+    }
+
+    /// The medium at `p`: the one the first medium interface hit along a fixed direction says
+    /// `p` is in, or the camera's medium if no interface is hit.
+    pub(crate) fn medium_at(&self, p: Vec3) -> Option<u32> {
+        // Off the axes, so that the probe does not run along mesh edges.
+        const PROBE: Vec3 = Vec3::new(0.267_261_24, 0.534_522_5, 0.801_783_7);
+        match self.medium_seen(p, PROBE) {
+            Some((m, _)) => m,
+            None => self.camera_medium,
+        }
+    }
+
+    /// True if some medium of the scene emits light.
+    pub fn has_emissive_media(&self) -> bool {
+        !self.emissive_media.is_empty()
+    }
+
     /// The medium at `p` according to the first medium interface hit along `d`, if any.
     fn medium_seen(&self, p: Vec3, d: Vec3) -> Option<(Option<u32>, &Shape)> {
         let mut o = p;

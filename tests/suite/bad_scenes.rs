@@ -248,6 +248,26 @@ fn bad_grid_media_name_the_key_and_the_volume_file() {
     load(&text).unwrap();
     let text = vdb("cloud.vdb", "").replace("sigma_s = 0.9", "sigma_s = [0.9, 0.5, 0.9]");
     expect_error(&text, &["media.cloud.sigma_s", "same extinction"]);
+    // Emission: a missing temperature grid is named with the file's grids; emission without
+    // absorption, negative or non-finite values are refused with their key.
+    expect_error(
+        &vdb("cloud.vdb", "temperature = { grid = \"heat\" }\n"),
+        &["media.cloud.temperature.grid", "cloud.vdb", "no grid named `heat`", "density"],
+    );
+    expect_error(
+        &vdb("cloud.vdb", "temperature = { scale = nan }\n"),
+        &["media.cloud.temperature.scale", "finite"],
+    );
+    expect_error(
+        &vdb("cloud.vdb", "temperature = { blackbody_scale = -2 }\n"),
+        &["media.cloud.temperature.blackbody_scale", "non-negative"],
+    );
+    expect_error(&vdb("cloud.vdb", "emission = -1\n"), &["media.cloud.emission"]);
+    expect_error(
+        &vdb("cloud.vdb", "emission = 2\n").replace("sigma_a = 0.1", "sigma_a = 0"),
+        &["media.cloud.emission", "σ_a = 0"],
+    );
+    load(&vdb("fire.vdb", "emission = 0.5\ntemperature = { cutoff = 800 }\n")).unwrap();
 }
 
 /// No input makes the loader panic: thousands of random corruptions of the documented example

@@ -40,7 +40,8 @@ enum Command {
     /// image at log-spaced iteration counts, for one or more series of settings; writes CSV,
     /// Markdown and SVG, and prints fitted and theoretical slopes.
     Converge(lab::ConvergeArgs),
-    /// Render media with known answers (furnace, Beer–Lambert, half-space, slab, point source)
+    /// Render media with known answers (furnace, Beer–Lambert, half-space, slab, point source,
+    /// emitting media)
     /// with every method and report agreement with the analytic references; exits 1 if a case
     /// fails.
     Validate(lab::ValidateArgs),

@@ -25,6 +25,7 @@
 //! irradiance = [3, 3, 3]
 //! ```
 
+pub(crate) mod media;
 mod sampler;
 mod tree;
 
@@ -327,6 +328,31 @@ impl Light {
         }
     }
 
+    /// Radiance the light emits from a point of its surface whose outward normal is `n`, in
+    /// direction `w` (pointing away from the light): an area light's radiance on its front side,
+    /// zero behind it and for lights without a surface (no ray can reach those).
+    #[inline]
+    pub fn le(&self, n: Vec3, w: Vec3) -> Rgb {
+        match self {
+            Light::Area { radiance, .. } if w.dot(n) > 0.0 => *radiance,
+            _ => Rgb::ZERO,
+        }
+    }
+
+    /// Solid-angle density at `from` with which [`Self::sample_li`] samples the direction towards
+    /// the point `to` of the light, whose normal makes cosine `cos_l` with the direction back to
+    /// `from`: d² / (|cos_l| A) for an area light (uniform by area); zero for point, spot and
+    /// directional lights, which no direction sampled otherwise can reach.
+    #[inline]
+    pub fn pdf_li(&self, from: Vec3, to: Vec3, cos_l: f32) -> f32 {
+        let Light::Area { emitter, .. } = self else { return 0.0 };
+        let (cos_l, area) = (cos_l.abs(), emitter.area());
+        if cos_l <= 0.0 || area <= 0.0 {
+            return 0.0;
+        }
+        (to - from).length_squared() / (cos_l * area)
+    }
+
     /// Light of a directional light, arriving from infinity.
     fn li_from_infinity(&self) -> Option<LightSample> {
         match self {
@@ -506,7 +532,12 @@ mod tests {
                 let to = at + ls.wi * (ls.dist / (1.0 - 1e-4));
                 let sampler = LightSampler::new(std::slice::from_ref(&rect), 1);
                 let (cos_l, from) = (ls.wi.z, Receiver::medium(at));
-                assert!((sampler.pdf_li(0, &from, to, cos_l) / pdf - 1.0).abs() < 1e-3);
+                let rect_alone = std::slice::from_ref(&rect);
+                assert!((sampler.pdf_li(rect_alone, 0, &from, to, cos_l) / pdf - 1.0).abs() < 1e-3);
+                // … and so does the light's own, with its radiance on the front side only.
+                assert!((rect.pdf_li(at, to, cos_l) / pdf - 1.0).abs() < 1e-3);
+                assert_eq!(rect.le(-Vec3::Z, -ls.wi), Rgb::splat(2.0));
+                assert_eq!(rect.le(-Vec3::Z, ls.wi), Rgb::ZERO);
                 assert!((ls.value.x as f64 - 2.0 / pdf as f64).abs() < 1e-3 * ls.value.x as f64);
                 Some(Sample::Direction(ls.wi))
             },

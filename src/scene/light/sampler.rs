@@ -53,6 +53,11 @@ impl LightSampler {
         self.area_lights.iter().any(Option::is_some)
     }
 
+    /// Total emitted power of the lights (mean channel, W).
+    pub fn total_power(&self) -> f32 {
+        self.total
+    }
+
     /// True if no light emits anything.
     pub fn is_empty(&self) -> bool {
         self.total <= 0.0
@@ -107,13 +112,20 @@ impl LightSampler {
     /// [`Self::pick`], then [`Light::sample_li`]) picks the direction towards the point `to` of
     /// the emitting shape `shape`, whose surface there has the cosine `cos_l` with that direction:
     /// P(light | from) · d² / (|cos_l| · area), per solid angle. Zero if the shape does not emit.
-    pub(crate) fn pdf_li(&self, shape: u32, from: &Receiver, to: Vec3, cos_l: f32) -> f32 {
-        let Some((li, area)) = self.area_light(shape) else { return 0.0 };
-        let cos_l = cos_l.abs();
-        if cos_l <= 0.0 || area <= 0.0 {
+    pub(crate) fn pdf_li(
+        &self,
+        lights: &[Light],
+        shape: u32,
+        from: &Receiver,
+        to: Vec3,
+        cos_l: f32,
+    ) -> f32 {
+        let Some((li, _)) = self.area_light(shape) else { return 0.0 };
+        let pdf = lights[li].pdf_li(from.p, to, cos_l);
+        if pdf <= 0.0 {
             return 0.0;
         }
-        self.prob(from, li) * (to - from.p).length_squared() / (cos_l * area)
+        self.prob(from, li) * pdf
     }
 }
 
@@ -361,10 +373,15 @@ mod tests {
         let lights = [panel(1, Vec3::ZERO, 1.0, false), point(Vec3::new(0.0, 0.0, 3.0), 5.0)];
         let sampler = LightSampler::new(&lights, 2);
         let from = Receiver::medium(Vec3::new(0.0, 0.0, 2.0));
-        let pdf = sampler.pdf_li(1, &from, Vec3::ZERO, 0.5);
+        let pdf = sampler.pdf_li(&lights, 1, &from, Vec3::ZERO, 0.5);
         let want = sampler.prob(&from, 0) * 4.0 / (0.5 * 2.0);
         assert!(sampler.prob(&from, 0) > 0.0 && (pdf - want).abs() < 1e-6 * want);
-        assert_eq!(sampler.pdf_li(0, &from, Vec3::ZERO, 0.5), 0.0, "shape 0 does not emit");
+        assert_eq!(
+            sampler.pdf_li(&lights, 0, &from, Vec3::ZERO, 0.5),
+            0.0,
+            "shape 0 does not emit"
+        );
+        assert_eq!(lights[1].pdf_li(from.p, Vec3::ZERO, 0.5), 0.0, "a point light has no density");
         let _ = spot_solid_angle(0.5, 0.9);
     }
 }
