@@ -67,6 +67,19 @@ def cloud(i, j, k, n=64):
     return min(1.0, 4.0 * d) * (0.6 + 0.4 * noise(2 * x + 3, 2 * y, 2 * z))
 
 
+def tiles():
+    """5. Constant regions stored as OpenVDB tiles (whole 8^3 leaves and a 128^3 internal node
+    of one value, no voxels), beside single voxels: 2.0 over [0, 32)^3 by a sparse fill, 0.5 over
+    [128, 256)^3, and voxels of density 3 along a line from (40, 4, 4). Voxel 1/32."""
+    g = grid(voxel=1.0 / 32.0)
+    g.fill((0, 0, 0), (31, 31, 31), 2.0, True)
+    g.fill((128, 128, 128), (255, 255, 255), 0.5, True)
+    acc = g.getAccessor()
+    for i in range(40, 60):
+        acc.setValueOn((i, 4, 4), 3.0)
+    write("tiles.vdb", [g])
+
+
 def main():
     # 1. A smooth procedural cloud, 64^3 voxels over [-1, 1]^3 (voxel 1/32).
     g = grid(voxel=1.0 / 32.0, origin=(-1.0, -1.0, -1.0))
@@ -98,6 +111,8 @@ def main():
     g = grid(voxel=1.0 / 32.0)
     set_voxels(g, (48, 48, 48), holes)
     write("holes.vdb", [g])
+
+    tiles()
 
     # --- Files vdb-rs 0.6 would mishandle --------------------------------------------------
     # Half-float storage with the library's default (compressed) codec: vdb-rs aborts the

@@ -64,6 +64,7 @@ mod dda;
 pub mod error;
 mod estimate;
 pub mod film;
+pub mod gridbench;
 mod integrator;
 #[cfg(feature = "lab")]
 pub mod lab;

@@ -17,10 +17,17 @@
 //! The file must be a regular file of at most [`MAX_FILE_BYTES`]; it is read into memory once,
 //! scanned, and parsed from there.
 //!
-//! Layout: a dense `Vec<f32>` over the bounding box of the active voxels, chosen by measurement
-//! (docs/performance.md): random trilinear lookups took 25 ns against 46–56 ns with 8³ bricks
-//! behind a dense brick table, while the bricks saved only 0.2–0.4 MB on the bundled grids.
-//! Bricks would pay off for large, sparse grids; the dense size is capped at [`MAX_VOXELS`].
+//! Layout, chosen per grid ([`Layout`]): a dense `Vec<f32>` over the bounding box of the active
+//! voxels where the box is well filled — the fastest lookup (docs/performance.md) — or 8³-voxel
+//! bricks behind a dense table of brick entries, each empty (zero), one constant value (an
+//! OpenVDB tile), or 512 stored values, where the box is mostly empty. Dense is chosen unless it
+//! would take more than 32 MiB and more than twice the bytes of the bricks, or more than
+//! [`MAX_VOXELS`] voxels; bricks are
+//! limited to [`MAX_BRICKS`] table entries (a box of 2048³ voxels). Both give the same densities,
+//! bit for bit: the interpolation sums the same products in the same order.
+//!
+//! Loading streams the voxels out of vdb-rs twice (bounds and brick census, then the copy), with
+//! no per-voxel list in between, and parses the file's bytes in place (no second copy of the file).
 
 use crate::error::{Error, Result};
 use glam::{IVec3, Vec3};
@@ -33,6 +40,78 @@ pub const MAX_FILE_BYTES: u64 = 4 << 30;
 /// Largest dense grid accepted (voxels).
 pub const MAX_VOXELS: u64 = 1 << 27;
 
+/// Voxels along each axis of a brick of the sparse layout.
+pub const BRICK: i32 = 8;
+const BRICK_VOXELS: usize = 512;
+
+/// Up to this many bytes a grid is stored densely whatever its fill (its lookups are faster, and
+/// the memory is small): 32 MiB.
+const SMALL: u128 = 32 << 20;
+
+/// Largest brick table of the sparse layout (entries of 4 bytes: 64 MiB, a box of 2048³ voxels).
+pub const MAX_BRICKS: u64 = 1 << 24;
+
+/// A brick table entry: no value (zero) …
+const EMPTY: u32 = u32::MAX;
+/// … a constant (the flag, with the index into `constants` below it) …
+const CONSTANT: u32 = 1 << 31;
+// … or otherwise the index of a stored brick.
+
+/// How a grid's voxels are stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Layout {
+    /// Dense where the box is well filled, bricks where it is mostly empty (module docs).
+    #[default]
+    Auto,
+    /// A dense array over the active voxels' bounding box.
+    Dense,
+    /// 8³-voxel bricks behind a dense table.
+    Bricks,
+}
+
+/// The stored voxels.
+#[derive(Clone, Debug)]
+enum Storage {
+    /// x fastest over the grid's box.
+    Dense(Vec<f32>),
+    Bricks(Bricks),
+}
+
+/// The sparse layout: bricks of [`BRICK`]³ voxels aligned to multiples of [`BRICK`] in index
+/// space (as OpenVDB's leaf nodes are), from the grid's origin.
+#[derive(Clone, Debug)]
+struct Bricks {
+    /// Bricks along each axis.
+    count: IVec3,
+    /// Per brick (x fastest): [`EMPTY`], [`CONSTANT`] | index into `constants`, or the index of
+    /// its 512 values in `pool`.
+    table: Vec<u32>,
+    constants: Vec<f32>,
+    /// Stored bricks' values, x fastest within a brick.
+    pool: Vec<f32>,
+}
+
+impl Bricks {
+    #[inline]
+    fn entry(&self, b: IVec3) -> u32 {
+        self.table[(b.x + self.count.x * (b.y + self.count.y * b.z)) as usize]
+    }
+
+    /// The value at `q` (relative to the grid's origin, inside its box).
+    #[inline]
+    fn at(&self, q: IVec3) -> f32 {
+        let e = self.entry(q >> 3);
+        if e == EMPTY {
+            0.0
+        } else if e & CONSTANT != 0 {
+            self.constants[(e & !CONSTANT) as usize]
+        } else {
+            let l = q & (BRICK - 1);
+            self.pool[e as usize * BRICK_VOXELS + (l.x + 8 * (l.y + 8 * l.z)) as usize]
+        }
+    }
+}
+
 /// Voxels per majorant cell along each axis.
 pub const MAJORANT_CELL: i32 = 8;
 
@@ -43,14 +122,18 @@ pub struct DensityGrid {
     pub origin: IVec3,
     /// Voxels stored along each axis.
     pub dims: IVec3,
-    /// Densities, x fastest.
-    pub data: Vec<f32>,
+    /// The voxels, dense or in bricks.
+    storage: Storage,
     /// World position of index (0, 0, 0) (voxel centres are at integer indices).
     pub translation: Vec3,
     /// World size of a voxel along each axis.
     pub voxel_size: Vec3,
     /// Largest density of any voxel.
     pub max_density: f32,
+    /// Active voxels in the file (tiles counted voxel by voxel).
+    pub active_voxels: u64,
+    /// The box of the active voxels (first and last index; the layout's box may be larger).
+    pub active_box: (IVec3, IVec3),
 }
 
 fn volume_error(path: &Path, message: impl Into<String>) -> Error {
@@ -85,19 +168,148 @@ fn find_map_name(bytes: &[u8]) -> Option<String> {
 }
 
 impl DensityGrid {
-    /// Reads float grid `name` from the OpenVDB file at `path`.
+    /// Reads float grid `name` from the OpenVDB file at `path`, in the layout that suits it.
+    #[cfg(test)]
     pub fn load(path: &Path, name: &str) -> Result<DensityGrid> {
+        Self::load_with(path, name, Layout::Auto)
+    }
+
+    /// Reads float grid `name` from the OpenVDB file at `path` in layout `layout`.
+    pub fn load_with(path: &Path, name: &str, layout: Layout) -> Result<DensityGrid> {
         let bytes = crate::scene::read_bounded(path, MAX_FILE_BYTES, "an OpenVDB file")?;
-        Self::from_bytes(bytes, path, name)
+        Self::from_bytes_with(bytes, path, name, layout)
     }
 
     /// Reads float grid `name` from the bytes of an OpenVDB file (`path` names it in messages).
     pub fn from_bytes(bytes: Vec<u8>, path: &Path, name: &str) -> Result<DensityGrid> {
-        let (mut vdb, bytes) = open(bytes, path, name)?;
-        check_names(&vdb, path, name)?;
-        let gd = check_grid(&vdb, path, name, &bytes)?;
-        let (items, translation, voxel_size) = read_voxels(&mut vdb, &gd, path, name)?;
-        densify(items, translation, voxel_size, path, name)
+        Self::from_bytes_with(bytes, path, name, Layout::Auto)
+    }
+
+    /// [`Self::from_bytes`] in layout `layout`. The bytes are freed once vdb-rs has read the
+    /// grid, before haze's copy is made.
+    pub fn from_bytes_with(
+        bytes: Vec<u8>,
+        path: &Path,
+        name: &str,
+        layout: Layout,
+    ) -> Result<DensityGrid> {
+        let read = {
+            let mut vdb = open(&bytes, path, name)?;
+            check_names(&vdb, path, name)?;
+            let gd = check_grid(&vdb, path, name, &bytes)?;
+            read_grid(&mut vdb, &gd, path, name)?
+        };
+        drop(bytes);
+        build(&read, path, name, layout)
+    }
+
+    /// The layout the voxels are stored in ([`Layout::Dense`] or [`Layout::Bricks`]).
+    pub fn layout(&self) -> Layout {
+        match self.storage {
+            Storage::Dense(_) => Layout::Dense,
+            Storage::Bricks(_) => Layout::Bricks,
+        }
+    }
+
+    /// Bytes of the stored voxels (the dense array, or the brick table, constants and bricks).
+    pub fn stored_bytes(&self) -> usize {
+        match &self.storage {
+            Storage::Dense(d) => 4 * d.len(),
+            Storage::Bricks(b) => 4 * (b.table.len() + b.constants.len() + b.pool.len()),
+        }
+    }
+
+    /// Multiplies every value by `k`.
+    pub(crate) fn scale_values(&mut self, k: f32) {
+        let values = match &mut self.storage {
+            Storage::Dense(d) => d.as_mut_slice(),
+            Storage::Bricks(b) => {
+                b.constants.iter_mut().for_each(|c| *c *= k);
+                b.pool.as_mut_slice()
+            }
+        };
+        values.iter_mut().for_each(|v| *v *= k);
+        self.max_density *= k;
+    }
+
+    /// Feeds the stored values to `feed` (a dense grid: every value in order).
+    pub(crate) fn feed_values(&self, feed: &mut dyn FnMut(&[u8])) {
+        let values = |v: &[f32], feed: &mut dyn FnMut(&[u8])| {
+            v.iter().for_each(|d| feed(&d.to_le_bytes()));
+        };
+        match &self.storage {
+            Storage::Dense(d) => values(d, feed),
+            Storage::Bricks(b) => {
+                b.table.iter().for_each(|e| feed(&e.to_le_bytes()));
+                values(&b.constants, feed);
+                values(&b.pool, feed);
+            }
+        }
+    }
+
+    /// The largest value of any voxel of each majorant cell's interpolation range: cell k (x
+    /// fastest, `cells` along each axis) covers voxels lo + k·[`MAJORANT_CELL`] + [0,
+    /// MAJORANT_CELL]³. The same in both layouts (bricks skip the cells whose bricks are all
+    /// empty). Built in parallel over z.
+    pub(crate) fn majorants(&self, lo: IVec3, cells: IVec3) -> Vec<f32> {
+        use rayon::prelude::*;
+        let m = MAJORANT_CELL;
+        let slice = (cells.x * cells.y) as usize;
+        let mut out = vec![0.0f32; slice * cells.z as usize];
+        // Largest value of each brick (sparse layout).
+        let brick_max: Vec<f32> = match &self.storage {
+            Storage::Dense(_) => Vec::new(),
+            Storage::Bricks(b) => b
+                .table
+                .par_iter()
+                .map(|&e| {
+                    if e == EMPTY {
+                        0.0
+                    } else if e & CONSTANT != 0 {
+                        b.constants[(e & !CONSTANT) as usize]
+                    } else {
+                        let start = e as usize * BRICK_VOXELS;
+                        b.pool[start..start + BRICK_VOXELS].iter().fold(0.0f32, |a, v| a.max(*v))
+                    }
+                })
+                .collect(),
+        };
+        out.par_chunks_mut(slice).enumerate().for_each(|(cz, plane)| {
+            for cy in 0..cells.y {
+                for cx in 0..cells.x {
+                    let base = lo + IVec3::new(cx, cy, cz as i32) * m;
+                    // Bricks skip the cells they know to be empty.
+                    let mut bound = f32::INFINITY;
+                    if let Storage::Bricks(b) = &self.storage {
+                        bound = 0.0;
+                        // The bricks the range [base, base + m] touches, within the table.
+                        let first: IVec3 = ((base - self.origin) >> 3i32).max(IVec3::ZERO);
+                        let last: IVec3 =
+                            ((base + IVec3::splat(m) - self.origin) >> 3i32).min(b.count - 1);
+                        for z in first.z..=last.z {
+                            for y in first.y..=last.y {
+                                for x in first.x..=last.x {
+                                    let k = x + b.count.x * (y + b.count.y * z);
+                                    bound = bound.max(brick_max[k as usize]);
+                                }
+                            }
+                        }
+                    }
+                    let mut v = 0.0f32;
+                    if bound > 0.0 {
+                        for z in 0..=m {
+                            for y in 0..=m {
+                                for x in 0..=m {
+                                    v = v.max(self.voxel(base + IVec3::new(x, y, z)));
+                                }
+                            }
+                        }
+                    }
+                    plane[(cx + cells.x * cy) as usize] = v;
+                }
+            }
+        });
+        out
     }
 
     /// Density at index `i` (zero outside the stored box).
@@ -107,7 +319,10 @@ impl DensityGrid {
         if q.cmplt(IVec3::ZERO).any() || q.cmpge(self.dims).any() {
             return 0.0;
         }
-        self.data[(q.x + self.dims.x * (q.y + self.dims.y * q.z)) as usize]
+        match &self.storage {
+            Storage::Dense(data) => data[(q.x + self.dims.x * (q.y + self.dims.y * q.z)) as usize],
+            Storage::Bricks(b) => b.at(q),
+        }
     }
 
     /// Trilinearly interpolated density at continuous index-space position `q` (voxel centres at
@@ -128,20 +343,31 @@ impl DensityGrid {
             t.x * t.y * t.z,
         ];
         let lo = i - self.origin;
-        if lo.cmpge(IVec3::ZERO).all() && (lo + IVec3::ONE).cmplt(self.dims).all() {
-            // All eight corners inside the box (most lookups): one index, no per-corner checks.
-            // The same products summed in the same order as below, so the same bits.
-            let (sy, sz) = (self.dims.x as usize, (self.dims.x * self.dims.y) as usize);
-            let base = lo.x as usize + sy * lo.y as usize + sz * lo.z as usize;
-            let cell = &self.data[base..=base + sz + sy + 1];
-            let corners = [0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1];
-            let mut d = 0.0;
-            for (w, c) in weights.into_iter().zip(corners) {
-                if w > 0.0 {
-                    d += w * cell[c];
-                }
+        let inside = lo.cmpge(IVec3::ZERO).all() && (lo + IVec3::ONE).cmplt(self.dims).all();
+        match &self.storage {
+            Storage::Dense(data) if inside => {
+                // All eight corners inside the box (most lookups): one index, no per-corner
+                // checks. The same products summed in the same order as below, so the same bits.
+                let (sy, sz) = (self.dims.x as usize, (self.dims.x * self.dims.y) as usize);
+                let base = lo.x as usize + sy * lo.y as usize + sz * lo.z as usize;
+                return corner_sum(&weights, &data[base..=base + sz + sy + 1], [sy, sz]);
             }
-            return d;
+            Storage::Bricks(b) if inside && (lo >> 3) == ((lo + IVec3::ONE) >> 3) => {
+                // All eight corners in one brick: one table entry.
+                let e = b.entry(lo >> 3);
+                if e == EMPTY {
+                    return 0.0;
+                }
+                if e & CONSTANT != 0 {
+                    // The dense sum with the same value at every corner.
+                    let c = b.constants[(e & !CONSTANT) as usize];
+                    return weights.iter().filter(|w| **w > 0.0).fold(0.0, |d, w| d + w * c);
+                }
+                let l = lo & (BRICK - 1);
+                let base = e as usize * BRICK_VOXELS + (l.x + 8 * (l.y + 8 * l.z)) as usize;
+                return corner_sum(&weights, &b.pool[base..=base + 64 + 8 + 1], [8, 64]);
+            }
+            _ => {}
         }
         let offsets = [
             IVec3::new(0, 0, 0),
@@ -163,27 +389,39 @@ impl DensityGrid {
     }
 }
 
-type Reader = vdb_rs::VdbReader<std::io::Cursor<Vec<u8>>>;
+/// Σ w_k · values[corner k] over the eight corners of an interpolation cell whose corner (0, 0, 0)
+/// is `values[0]`, with strides `[y, z]`, skipping zero weights: the sum every layout computes, in
+/// the same order, so that they agree bit for bit.
+#[inline(always)]
+fn corner_sum(weights: &[f32; 8], values: &[f32], [sy, sz]: [usize; 2]) -> f32 {
+    let corners = [0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1];
+    let mut d = 0.0;
+    for (w, c) in weights.iter().zip(corners) {
+        if *w > 0.0 {
+            d += w * values[c];
+        }
+    }
+    d
+}
 
-/// An OpenVDB reader over the bytes of the file at `path` (pre-scanned for the grid `name`), and
-/// the bytes.
-fn open(bytes: Vec<u8>, path: &Path, name: &str) -> Result<(Reader, Vec<u8>)> {
+type Reader<'a> = vdb_rs::VdbReader<std::io::Cursor<&'a [u8]>>;
+
+/// An OpenVDB reader over the bytes of the file at `path` (pre-scanned for the grid `name`),
+/// parsing them in place.
+fn open<'a>(bytes: &'a [u8], path: &Path, name: &str) -> Result<Reader<'a>> {
     let err = |m: String| volume_error(path, m);
     if bytes.len() < 8 || bytes[..4] != [0x20, 0x42, 0x44, 0x56] {
         return Err(err("not an OpenVDB file (bad magic number)".into()));
     }
-    super::vdbscan::scan(&bytes, name).map_err(err)?;
-    let reader = std::io::Cursor::new(bytes.clone());
+    super::vdbscan::scan(bytes, name).map_err(err)?;
+    let reader = std::io::Cursor::new(bytes);
     let opened =
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb_rs::VdbReader::new(reader)));
-    let vdb = match opened {
-        Ok(Ok(v)) => v,
-        Ok(Err(e)) => return Err(err(format!("cannot read the file header: {e}"))),
-        Err(_) => {
-            return Err(err("cannot read the file header (corrupt or unsupported)".into()));
-        }
-    };
-    Ok((vdb, bytes))
+    match opened {
+        Ok(Ok(v)) => Ok(v),
+        Ok(Err(e)) => Err(err(format!("cannot read the file header: {e}"))),
+        Err(_) => Err(err("cannot read the file header (corrupt or unsupported)".into())),
+    }
 }
 
 /// Refuses grids that share a name (vdb-rs would keep only one), and names suffixed by OpenVDB
@@ -264,18 +502,22 @@ fn check_grid<R: Read + Seek>(
     Ok(gd)
 }
 
-/// Active voxels and tiles: (position of the first voxel, edge length in voxels, value), with the
-/// grid's translation and voxel size.
-type Voxels = (Vec<(IVec3, i32, f32)>, Vec3, Vec3);
+/// A grid as vdb-rs read it, with its translation and voxel size and the active-voxel count the
+/// file states.
+struct ReadGrid {
+    grid: vdb_rs::Grid<f32>,
+    translation: Vec3,
+    voxel_size: Vec3,
+    expected: Option<u64>,
+}
 
-/// Reads the grid's voxels and tiles (any panic of vdb-rs contained), checking that none is
-/// missing.
-fn read_voxels<R: Read + Seek>(
+/// Reads the grid (any panic of vdb-rs contained).
+fn read_grid<R: Read + Seek>(
     vdb: &mut vdb_rs::VdbReader<R>,
     gd: &vdb_rs::GridDescriptor,
     path: &Path,
     name: &str,
-) -> Result<Voxels> {
+) -> Result<ReadGrid> {
     let err = |m: String| volume_error(path, m);
     let read =
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb.read_grid::<f32>(name)));
@@ -296,83 +538,191 @@ fn read_voxels<R: Read + Seek>(
     if !(voxel_size.min_element() > 0.0 && voxel_size.is_finite() && translation.is_finite()) {
         return Err(err(format!("grid `{name}`: invalid voxel size {voxel_size}")));
     }
-    // Gather voxels and tiles: (position of the first voxel, edge length in voxels, value).
-    // vdb-rs indexes its leaf buffers here, so a corrupt file can still make it panic: contained.
-    let gathered = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        let mut items: Vec<(IVec3, i32, f32)> = Vec::new();
-        let mut counted: u64 = 0;
-        for (p, v, level) in grid.iter() {
-            let edge = level.scale() as i32;
-            let p = IVec3::new(p.x as i32, p.y as i32, p.z as i32);
-            counted += (edge as u64).pow(3);
-            items.push((p, edge, v));
-        }
-        (items, counted)
-    }));
-    let Ok((items, counted)) = gathered else {
-        return Err(err(format!("grid `{name}`: corrupt data (the reader failed)")));
-    };
     let expected = match gd.meta_data.0.get("file_voxel_count") {
         Some(vdb_rs::MetadataValue::I64(n)) => Some(*n as u64),
         _ => None,
     };
-    if let Some(n) = expected {
-        if n != counted {
-            return Err(err(format!(
-                "grid `{name}`: the file has {n} active voxels but vdb-rs 0.6 returned \
-                 {counted}; it drops root-level tiles (active regions of 4096³ voxels); \
-                 store such regions as voxels"
-            )));
-        }
-    }
-    if items.is_empty() {
-        return Err(err(format!("grid `{name}` has no active voxels")));
-    }
-    Ok((items, translation, voxel_size))
+    Ok(ReadGrid { grid, translation, voxel_size, expected })
 }
 
-/// Copies voxels and tiles into a dense array over their bounding box.
-fn densify(
-    items: Vec<(IVec3, i32, f32)>,
-    translation: Vec3,
-    voxel_size: Vec3,
+/// Calls `f(first voxel, edge length in voxels, value)` for every active voxel and tile of the
+/// grid, streaming them out of vdb-rs (which indexes its leaf buffers here, so a corrupt file can
+/// still make it panic: contained, and reported as an error).
+fn for_each_item(
+    read: &ReadGrid,
     path: &Path,
     name: &str,
-) -> Result<DensityGrid> {
+    mut f: impl FnMut(IVec3, i32, f32),
+) -> Result<()> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        for (p, v, level) in read.grid.iter() {
+            f(IVec3::new(p.x as i32, p.y as i32, p.z as i32), level.scale() as i32, v);
+        }
+    }))
+    .map_err(|_| volume_error(path, format!("grid `{name}`: corrupt data (the reader failed)")))
+}
+
+/// What the first pass over a grid's voxels finds.
+struct Census {
+    lo: IVec3,
+    hi: IVec3,
+    /// Active voxels, tiles counted voxel by voxel.
+    voxels: u64,
+    max: f32,
+    /// The first value that is negative or not finite, with its index.
+    bad: Option<(IVec3, f32)>,
+    /// Bricks holding single voxels (tiles become constant bricks).
+    stored: std::collections::HashSet<IVec3>,
+}
+
+/// The copy of the grid in `layout` (chosen by [`Layout::Auto`]'s rule when asked), checked: no
+/// voxel missing, values finite and non-negative, within the layouts' limits.
+fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<DensityGrid> {
     let err = |m: String| volume_error(path, m);
-    let lo = items.iter().fold(IVec3::MAX, |a, (p, _, _)| a.min(*p));
-    let hi = items.iter().fold(IVec3::MIN, |a, (p, e, _)| a.max(*p + IVec3::splat(*e - 1)));
-    // In 64 bits: far-apart voxels would overflow i32 extents and their u64 product.
-    let extent = (hi.as_i64vec3() - lo.as_i64vec3()) + glam::I64Vec3::ONE;
-    let total = (extent.x as u128) * (extent.y as u128) * (extent.z as u128);
-    if total > MAX_VOXELS as u128 {
-        return Err(err(format!(
-            "grid `{name}` spans {}×{}×{} voxels, more than haze's dense limit of {MAX_VOXELS}",
-            extent.x, extent.y, extent.z
-        )));
-    }
-    let dims = extent.as_ivec3();
-    let total = total as u64;
-    let mut data = vec![0.0f32; total as usize];
-    let mut max_density = 0.0f32;
-    for (p, edge, v) in items {
+    let mut c = Census {
+        lo: IVec3::MAX,
+        hi: IVec3::MIN,
+        voxels: 0,
+        max: 0.0,
+        bad: None,
+        stored: Default::default(),
+    };
+    let mut last_brick = None;
+    for_each_item(read, path, name, |p, edge, v| {
+        c.lo = c.lo.min(p);
+        c.hi = c.hi.max(p + IVec3::splat(edge - 1));
+        c.voxels += (edge as u64).pow(3);
         if !v.is_finite() || v < 0.0 {
+            c.bad.get_or_insert((p, v));
+        }
+        c.max = c.max.max(v);
+        // Tiles become constant bricks (their table entries only).
+        if edge < BRICK && last_brick != Some(p >> 3) {
+            last_brick = Some(p >> 3);
+            c.stored.insert(p >> 3);
+        }
+    })?;
+    if let Some(n) = read.expected {
+        if n != c.voxels {
             return Err(err(format!(
-                "grid `{name}` has a density of {v} at index {p}; densities must be finite and \
-                 non-negative"
+                "grid `{name}`: the file has {n} active voxels but vdb-rs 0.6 returned {}; it \
+                 drops root-level tiles (active regions of 4096³ voxels); store such regions as \
+                 voxels",
+                c.voxels
             )));
         }
-        max_density = max_density.max(v);
-        for z in 0..edge {
-            for y in 0..edge {
-                for x in 0..edge {
-                    let q = p + IVec3::new(x, y, z) - lo;
-                    data[(q.x + dims.x * (q.y + dims.y * q.z)) as usize] = v;
-                }
-            }
-        }
     }
-    Ok(DensityGrid { origin: lo, dims, data, translation, voxel_size, max_density })
+    if c.voxels == 0 {
+        return Err(err(format!("grid `{name}` has no active voxels")));
+    }
+    if let Some((p, v)) = c.bad {
+        return Err(err(format!(
+            "grid `{name}` has a density of {v} at index {p}; densities must be finite and \
+             non-negative"
+        )));
+    }
+    // In 64 bits: far-apart voxels would overflow i32 extents and their u64 product.
+    let extent = (c.hi.as_i64vec3() - c.lo.as_i64vec3()) + glam::I64Vec3::ONE;
+    let dense_voxels = (extent.x as u128) * (extent.y as u128) * (extent.z as u128);
+    // Bricks from the multiple of BRICK at or below the lowest index.
+    let brick_lo: IVec3 = (c.lo >> 3) << 3;
+    let brick_count = ((c.hi.as_i64vec3() - brick_lo.as_i64vec3()) / BRICK as i64) + 1;
+    let table = (brick_count.x as u128) * (brick_count.y as u128) * (brick_count.z as u128);
+    let brick_bytes = 4 * (table + c.stored.len() as u128 * 512);
+    let dense_fits = dense_voxels <= MAX_VOXELS as u128;
+    let bricks_fit = table <= MAX_BRICKS as u128;
+    let chosen = match layout {
+        Layout::Auto
+            if dense_fits && (4 * dense_voxels <= SMALL || 4 * dense_voxels <= 2 * brick_bytes) =>
+        {
+            Layout::Dense
+        }
+        Layout::Auto if bricks_fit => Layout::Bricks,
+        Layout::Auto if dense_fits => Layout::Dense,
+        other => other,
+    };
+    let (origin, dims, storage) = match chosen {
+        Layout::Dense | Layout::Auto => {
+            if !dense_fits {
+                return Err(err(format!(
+                    "grid `{name}` spans {}×{}×{} voxels, more than haze's limit of {MAX_VOXELS} \
+                     for a dense copy{}",
+                    extent.x,
+                    extent.y,
+                    extent.z,
+                    if bricks_fit { "" } else { " and of 2048³ voxels for bricks" }
+                )));
+            }
+            let dims = extent.as_ivec3();
+            let mut data = vec![0.0f32; dense_voxels as usize];
+            let lo = c.lo;
+            for_each_item(read, path, name, |p, edge, v| {
+                for z in 0..edge {
+                    for y in 0..edge {
+                        let q = p + IVec3::new(0, y, z) - lo;
+                        let row = (q.x + dims.x * (q.y + dims.y * q.z)) as usize;
+                        data[row..row + edge as usize].fill(v);
+                    }
+                }
+            })?;
+            (c.lo, dims, Storage::Dense(data))
+        }
+        Layout::Bricks => {
+            if !bricks_fit {
+                return Err(err(format!(
+                    "grid `{name}` spans {}×{}×{} voxels, more than haze's limit of 2048³ voxels \
+                     for its brick table",
+                    extent.x, extent.y, extent.z
+                )));
+            }
+            let count = brick_count.as_ivec3();
+            let mut b = Bricks {
+                count,
+                table: vec![EMPTY; table as usize],
+                constants: Vec::new(),
+                pool: Vec::with_capacity(c.stored.len() * BRICK_VOXELS),
+            };
+            drop(std::mem::take(&mut c.stored));
+            let index = |q: IVec3| (q.x + count.x * (q.y + count.y * q.z)) as usize;
+            for_each_item(read, path, name, |p, edge, v| {
+                let q = p - brick_lo;
+                if edge >= BRICK {
+                    // A tile: whole bricks of one value, stored once.
+                    let n = edge / BRICK;
+                    let entry = CONSTANT | b.constants.len() as u32;
+                    b.constants.push(v);
+                    for z in 0..n {
+                        for y in 0..n {
+                            for x in 0..n {
+                                b.table[index((q >> 3) + IVec3::new(x, y, z))] = entry;
+                            }
+                        }
+                    }
+                } else {
+                    let k = index(q >> 3);
+                    if b.table[k] == EMPTY {
+                        b.table[k] = (b.pool.len() / BRICK_VOXELS) as u32;
+                        b.pool.resize(b.pool.len() + BRICK_VOXELS, 0.0);
+                    }
+                    let l = q & (BRICK - 1);
+                    b.pool[b.table[k] as usize * BRICK_VOXELS
+                        + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
+                }
+            })?;
+            let dims = (c.hi - brick_lo) + IVec3::ONE;
+            (brick_lo, dims, Storage::Bricks(b))
+        }
+    };
+    Ok(DensityGrid {
+        origin,
+        dims,
+        storage,
+        translation: read.translation,
+        voxel_size: read.voxel_size,
+        max_density: c.max,
+        active_voxels: c.voxels,
+        active_box: (c.lo, c.hi),
+    })
 }
 
 /// `v.floor()` without a call into libm (x86-64's baseline has no rounding instruction, and the
@@ -444,7 +794,11 @@ mod tests {
     fn good_grids_load_with_their_values() {
         let b = DensityGrid::load(&media("box.vdb"), "density").unwrap();
         assert_eq!(b.dims, IVec3::splat(16));
-        assert!(b.data.iter().all(|&d| d == 1.0));
+        let (lo, hi) = b.active_box;
+        assert_eq!((lo, hi), (IVec3::ZERO, IVec3::splat(15)));
+        assert_eq!(b.active_voxels, 16 * 16 * 16);
+        assert_eq!(b.max_density, 1.0);
+        assert_eq!(b.voxel(IVec3::new(3, 15, 7)), 1.0);
         assert!((b.voxel_size - Vec3::splat(1.0 / 16.0)).abs().max_element() < 1e-7);
         assert_eq!(b.translation, Vec3::ZERO);
 
@@ -487,7 +841,11 @@ mod tests {
         expect_error(&media("bad/affine.vdb"), "density", &["AffineMap"]);
         expect_error(&media("bad/duplicate.vdb"), "density", &["share the name"]);
         expect_error(&media("bad/root-tile.vdb"), "density", &["root-level tiles"]);
-        expect_error(&media("bad/far-apart.vdb"), "density", &["dense limit"]);
+        expect_error(
+            &media("bad/far-apart.vdb"),
+            "density",
+            &["dense copy", "2048³ voxels for bricks"],
+        );
         expect_error(&media("box.vdb"), "smoke", &["no grid named `smoke`", "density"]);
         expect_error(&media("no-such-file.vdb"), "density", &["No such file"]);
 
@@ -549,5 +907,86 @@ mod tests {
             }
         }
         assert!(refused > 0 && ok + refused > 2 * good.len(), "{ok} loaded, {refused} refused");
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    use super::*;
+    use crate::rng::{Purpose, Sampler};
+
+    fn media(name: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("media").join(name)
+    }
+
+    /// Every bundled grid (and one of OpenVDB tiles) reads the same in both layouts: every voxel
+    /// of the box and a margin around it, trilinear lookups at 100,000 random points bit for bit,
+    /// and the majorant cells of the medium built on it; and the automatic choice is dense for
+    /// the small bundled grids, bricks for the tiles file, whose box is 256³ but holds 65 tiles
+    /// and 20 voxels.
+    #[test]
+    fn dense_and_brick_layouts_read_the_same_values() {
+        let files = [
+            ("cloud.vdb", "density"),
+            ("box.vdb", "density"),
+            ("gradient.vdb", "density"),
+            ("holes.vdb", "density"),
+            ("fire.vdb", "density"),
+            ("fire.vdb", "temperature"),
+            ("tiles.vdb", "density"),
+        ];
+        for (file, name) in files {
+            let dense = DensityGrid::load_with(&media(file), name, Layout::Dense).unwrap();
+            let bricks = DensityGrid::load_with(&media(file), name, Layout::Bricks).unwrap();
+            let auto = DensityGrid::load(&media(file), name).unwrap();
+            let want = if file == "tiles.vdb" { Layout::Bricks } else { Layout::Dense };
+            assert_eq!(auto.layout(), want, "{file} {name}");
+            assert_eq!((dense.layout(), bricks.layout()), (Layout::Dense, Layout::Bricks));
+            assert_eq!(dense.active_voxels, bricks.active_voxels);
+            assert_eq!(dense.max_density, bricks.max_density);
+            let (lo, hi) = dense.active_box;
+            let step = if file == "tiles.vdb" { 3 } else { 1 };
+            for z in (lo.z - 2..=hi.z + 2).step_by(step) {
+                for y in (lo.y - 2..=hi.y + 2).step_by(step) {
+                    for x in lo.x - 2..=hi.x + 2 {
+                        let i = IVec3::new(x, y, z);
+                        assert_eq!(
+                            dense.voxel(i).to_bits(),
+                            bricks.voxel(i).to_bits(),
+                            "{file} {i}"
+                        );
+                    }
+                }
+            }
+            let mut s = Sampler::new(5, Purpose::Camera, 0, 0);
+            let (a, size) = ((lo - 2).as_vec3(), (hi - lo + 4).as_vec3());
+            for _ in 0..100_000 {
+                let q = a + size * Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
+                let (d, b) = (dense.density_index(q), bricks.density_index(q));
+                assert_eq!(d.to_bits(), b.to_bits(), "{file} {name} at {q}: {d} vs {b}");
+            }
+            let cells = (dense.dims + 2 + MAJORANT_CELL - 1) / MAJORANT_CELL;
+            let start = dense.origin - 1;
+            assert_eq!(dense.majorants(start, cells), bricks.majorants(start, cells), "{file}");
+        }
+    }
+
+    /// Tiles are stored as one value per brick: the tiles file's bricks take a few hundred KB
+    /// where its dense box would take 64 MiB, and the holes grid's bricks less than half its
+    /// dense array.
+    #[test]
+    fn bricks_store_sparse_grids_in_proportion_to_what_they_hold() {
+        let tiles = DensityGrid::load_with(&media("tiles.vdb"), "density", Layout::Bricks).unwrap();
+        assert_eq!(tiles.active_voxels, 32 * 32 * 32 + 128 * 128 * 128 + 20);
+        assert!(tiles.stored_bytes() < 300_000, "{} bytes", tiles.stored_bytes());
+        assert_eq!(tiles.voxel(IVec3::new(5, 30, 17)), 2.0);
+        assert_eq!(tiles.voxel(IVec3::new(200, 129, 255)), 0.5);
+        assert_eq!(tiles.voxel(IVec3::new(45, 4, 4)), 3.0);
+        assert_eq!(tiles.voxel(IVec3::new(45, 5, 4)), 0.0);
+        assert_eq!(tiles.voxel(IVec3::new(100, 100, 100)), 0.0);
+        let dense = DensityGrid::load_with(&media("holes.vdb"), "density", Layout::Dense).unwrap();
+        let bricks =
+            DensityGrid::load_with(&media("holes.vdb"), "density", Layout::Bricks).unwrap();
+        assert!(2 * bricks.stored_bytes() < dense.stored_bytes());
     }
 }

@@ -108,6 +108,8 @@ pub struct VdbMedium {
 /// [`super::blackbody`]).
 #[derive(Clone, Debug)]
 pub struct TemperatureField {
+    /// The grid's name in its file.
+    pub name: String,
     /// The temperature grid (trilinear like the density).
     pub grid: DensityGrid,
     /// Scene → the temperature grid's index space.
@@ -133,7 +135,8 @@ impl TemperatureField {
         blackbody_scale: f32,
     ) -> Self {
         let to_index = index_from_grid(&grid) * to_scene.inverse();
-        Self { grid, to_index, scale, offset, cutoff, blackbody_scale }
+        let name = "temperature".into();
+        Self { name, grid, to_index, scale, offset, cutoff, blackbody_scale }
     }
 
     /// T' at a voxel of the temperature grid.
@@ -179,31 +182,15 @@ impl VdbMedium {
         sigma_s: Rgb,
         phase: HenyeyGreenstein,
     ) -> Self {
-        for d in &mut grid.data {
-            *d *= density_scale;
-        }
-        grid.max_density *= density_scale;
+        grid.scale_values(density_scale);
         let to_index = index_from_grid(&grid) * to_scene.inverse();
-        // Trilinear lookups are non-zero for q in (origin − 1, origin + dims): cover it.
-        let lo = (grid.origin - IVec3::ONE).as_vec3();
-        let cells = (grid.dims + IVec3::splat(2) + IVec3::splat(MAJORANT_CELL - 1)) / MAJORANT_CELL;
-        let mut majorant = vec![0.0f32; (cells.x * cells.y * cells.z) as usize];
-        for cz in 0..cells.z {
-            for cy in 0..cells.y {
-                for cx in 0..cells.x {
-                    let base = grid.origin - IVec3::ONE + IVec3::new(cx, cy, cz) * MAJORANT_CELL;
-                    let mut m = 0.0f32;
-                    for z in 0..=MAJORANT_CELL {
-                        for y in 0..=MAJORANT_CELL {
-                            for x in 0..=MAJORANT_CELL {
-                                m = m.max(grid.voxel(base + IVec3::new(x, y, z)));
-                            }
-                        }
-                    }
-                    majorant[(cx + cells.x * (cy + cells.y * cz)) as usize] = m;
-                }
-            }
-        }
+        // Trilinear lookups are non-zero for q in (first − 1, last + 1) of the active box: cover
+        // it (the active box, not the layout's, so that both layouts track alike).
+        let (first, last) = grid.active_box;
+        let lo = (first - IVec3::ONE).as_vec3();
+        let extent = last - first + IVec3::ONE;
+        let cells = (extent + IVec3::splat(2) + IVec3::splat(MAJORANT_CELL - 1)) / MAJORANT_CELL;
+        let majorant = grid.majorants(first - IVec3::ONE, cells);
         // Grey by construction (checked when the scene is built); average away f32 rounding.
         let sigma_t = (sigma_a + sigma_s).element_sum() / 3.0;
         let absorption_share = if sigma_t > 0.0 { sigma_a / sigma_t } else { Rgb::ZERO };
@@ -319,7 +306,7 @@ impl VdbMedium {
             format!("{:?} {:?} {:?} {:?}", g.origin, g.dims, g.translation, g.voxel_size)
                 .as_bytes(),
         );
-        g.data.iter().for_each(|d| feed(&d.to_le_bytes()));
+        g.feed_values(feed);
         let t =
             format!("{:?} {:?} {:?} {:?}", self.to_index, self.sigma_s, self.sigma_t, self.phase);
         feed(t.as_bytes());
@@ -336,7 +323,7 @@ impl VdbMedium {
                     )
                     .as_bytes(),
                 );
-                g.data.iter().for_each(|d| feed(&d.to_le_bytes()));
+                g.feed_values(feed);
             }
         }
     }

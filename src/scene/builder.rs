@@ -4,13 +4,13 @@
 
 use super::camera::{Camera, CameraDesc};
 use super::describe::{
-    GeometryDesc, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc, MediumId, MediumRef,
-    ShapeDesc, TemperatureDesc, Transform,
+    GeometryDesc, GridLayout, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc, MediumId,
+    MediumRef, ShapeDesc, TemperatureDesc, Transform,
 };
 use super::light::{self, Emitter, Light};
 use super::material::Material;
 use super::shape::{self, Mesh};
-use super::{MAX_COORDINATE, MediumInterface, Scene, Shape};
+use super::{GridInfo, MAX_COORDINATE, MediumInterface, Scene, Shape};
 use crate::accel::{Accel, Primitive};
 use crate::error::{Error, Result};
 use crate::math::Rgb;
@@ -56,6 +56,7 @@ pub struct SceneBuilder {
     shapes: Vec<(Shape, Geometry)>,
     lights: Vec<(LightKind, Option<u32>)>,
     source: Option<PathBuf>,
+    grids: Vec<GridInfo>,
 }
 
 pub(super) fn invalid(key: String, message: impl Into<String>) -> Error {
@@ -116,6 +117,7 @@ impl SceneBuilder {
             shapes: Vec::new(),
             lights: Vec::new(),
             source: None,
+            grids: Vec::new(),
         }
     }
 
@@ -212,7 +214,9 @@ impl SceneBuilder {
             MediumDesc::Homogeneous { .. } => {
                 Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase, emission })
             }
-            MediumDesc::Vdb { file, grid, density_scale, transform, temperature, .. } => {
+            MediumDesc::Vdb {
+                file, grid, density_scale, transform, temperature, layout, ..
+            } => {
                 let t = sigma_a + sigma_s;
                 // Equal up to f32 rounding (albedo · σ_t + (1 − albedo) · σ_t need not sum
                 // exactly).
@@ -232,13 +236,18 @@ impl SceneBuilder {
                     ));
                 }
                 check_transform(&transform, &format!("media.{name}"))?;
-                let grid = DensityGrid::load(&file, &grid)
+                let grid_name = grid;
+                let grid = DensityGrid::load_with(&file, &grid_name, layout)
                     .map_err(|e| invalid(key("file"), self.relative_note(&file, e.to_string())))?;
                 let to_scene = transform.matrix();
                 let temperature = match temperature {
-                    Some(t) => Some(self.temperature_field(name, &file, &t, to_scene)?),
+                    Some(t) => Some(self.temperature_field(name, &file, &t, to_scene, layout)?),
                     None => None,
                 };
+                self.grids.push(GridInfo::of(name, &grid_name, &grid));
+                if let Some(t) = &temperature {
+                    self.grids.push(GridInfo::of(name, &t.name, &t.grid));
+                }
                 let medium = VdbMedium::new(grid, to_scene, density_scale, sigma_a, sigma_s, phase);
                 Medium::Vdb(Box::new(medium.with_emission(emission, temperature)))
             }
@@ -254,6 +263,7 @@ impl SceneBuilder {
         file: &std::path::Path,
         t: &TemperatureDesc,
         to_scene: glam::Affine3A,
+        layout: GridLayout,
     ) -> Result<TemperatureField> {
         let key = |k: &str| format!("media.{name}.temperature.{k}");
         for (k, v) in [("scale", t.scale), ("offset", t.offset), ("cutoff", t.cutoff)] {
@@ -265,9 +275,12 @@ impl SceneBuilder {
             let message = format!("must be finite and non-negative, got {}", t.blackbody_scale);
             return Err(invalid(key("blackbody_scale"), message));
         }
-        let grid = DensityGrid::load(file, &t.grid)
+        let grid = DensityGrid::load_with(file, &t.grid, layout)
             .map_err(|e| invalid(key("grid"), self.relative_note(file, e.to_string())))?;
-        Ok(TemperatureField::new(grid, to_scene, t.scale, t.offset, t.cutoff, t.blackbody_scale))
+        let mut field =
+            TemperatureField::new(grid, to_scene, t.scale, t.offset, t.cutoff, t.blackbody_scale);
+        field.name = t.grid.clone();
+        Ok(field)
     }
 
     fn medium_id(&self, key: String, m: &MediumRef) -> Result<MediumId> {
@@ -433,6 +446,7 @@ impl SceneBuilder {
             media: self.media.into_iter().map(|(_, m)| m).collect(),
             camera_medium,
             emissive_media: Default::default(),
+            grids: self.grids,
             settings: self.settings,
             bounds: (lo, hi),
             source: self.source,

@@ -20,6 +20,7 @@
 
 use super::shape::Mesh;
 use crate::math::Rgb;
+pub use crate::medium::grid::Layout as GridLayout;
 use glam::{Affine3A, Vec3};
 use std::path::PathBuf;
 
@@ -168,6 +169,8 @@ pub enum MediumDesc {
         emission: Rgb,
         /// Blackbody emission from a temperature grid, added to `emission`.
         temperature: Option<TemperatureDesc>,
+        /// How the grids are stored (dense or in bricks; by default chosen per grid).
+        layout: GridLayout,
         /// Places the grid's world space in the scene.
         transform: Transform,
     },
@@ -227,6 +230,7 @@ impl MediumDesc {
             g: 0.0,
             emission: Rgb::ZERO,
             temperature: None,
+            layout: GridLayout::Auto,
             transform: Transform::default(),
         }
     }
@@ -238,6 +242,15 @@ impl MediumDesc {
             MediumDesc::Homogeneous { emission, .. } | MediumDesc::Vdb { emission, .. } => {
                 *emission = le
             }
+        }
+        self
+    }
+
+    /// Grid media: how the grids are stored ([`GridLayout::Auto`] by default: dense where the
+    /// active voxels fill their box well, bricks where they do not).
+    pub fn layout(mut self, l: GridLayout) -> Self {
+        if let MediumDesc::Vdb { layout, .. } = &mut self {
+            *layout = l;
         }
         self
     }

@@ -136,8 +136,17 @@ pub struct VdbDef {
     pub g: Option<f32>,
     pub emission: Option<ColorDef>,
     pub temperature: Option<TemperatureDef>,
+    pub layout: Option<LayoutDef>,
     #[serde(default)]
     pub transform: TransformDef,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LayoutDef {
+    Auto,
+    Dense,
+    Bricks,
 }
 
 #[derive(Debug)]

@@ -7,14 +7,15 @@ use super::describe::{
     TemperatureDesc, Transform,
 };
 use super::format::{
-    self, CameraDef, ColorDef, HomogeneousDef, LightDef, MaterialDef, MediumDef, ScaleDef,
-    SceneFile, ShapeDef, TransformDef, VdbDef,
+    self, CameraDef, ColorDef, HomogeneousDef, LayoutDef, LightDef, MaterialDef, MediumDef,
+    ScaleDef, SceneFile, ShapeDef, TransformDef, VdbDef,
 };
 use super::material::Material;
 use super::shape::Mesh;
 use super::{Scene, SceneBuilder};
 use crate::error::{Error, Result};
 use crate::math::Rgb;
+use crate::medium::grid::Layout as GridLayout;
 use crate::settings::{RenderOptions, RenderSettings};
 use glam::Vec3;
 use std::ops::Range;
@@ -250,6 +251,11 @@ fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium
                 blackbody_scale: t.blackbody_scale.unwrap_or(default.blackbody_scale),
             }
         }),
+        layout: match d.layout {
+            None | Some(LayoutDef::Auto) => GridLayout::Auto,
+            Some(LayoutDef::Dense) => GridLayout::Dense,
+            Some(LayoutDef::Bricks) => GridLayout::Bricks,
+        },
         transform: transform(&d.transform),
     })
 }

@@ -13,8 +13,8 @@ pub(crate) mod shape;
 pub use builder::{MAX_TESSELLATION, SceneBuilder};
 pub use camera::{CameraDesc, Lens, MAX_PIXELS};
 pub use describe::{
-    GeometryDesc, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc, MediumId,
-    MediumRef, ShapeDesc, TemperatureDesc, Transform,
+    GeometryDesc, GridLayout, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc,
+    MediumId, MediumRef, ShapeDesc, TemperatureDesc, Transform,
 };
 pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
@@ -59,6 +59,55 @@ pub(crate) fn read_bounded(path: &Path, max: u64, what: &str) -> Result<Vec<u8>>
         return Err(refuse(format!("grew past {max} bytes while being read")));
     }
     Ok(bytes)
+}
+
+/// How one grid of a grid medium is stored ([`Scene::grids`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GridInfo {
+    /// The medium's name.
+    pub medium: String,
+    /// The grid's name in its file.
+    pub grid: String,
+    /// The layout chosen (or asked for): [`GridLayout::Dense`] or [`GridLayout::Bricks`].
+    pub layout: GridLayout,
+    /// The box the layout covers, in voxels.
+    pub dims: [i32; 3],
+    /// Active voxels in the file (tiles counted voxel by voxel).
+    pub active_voxels: u64,
+    /// Bytes of the stored values (the dense array, or the brick table, constants and bricks).
+    pub bytes: usize,
+}
+
+impl GridInfo {
+    pub(crate) fn of(medium: &str, grid: &str, g: &crate::medium::grid::DensityGrid) -> Self {
+        Self {
+            medium: medium.to_string(),
+            grid: grid.to_string(),
+            layout: g.layout(),
+            dims: g.dims.to_array(),
+            active_voxels: g.active_voxels,
+            bytes: g.stored_bytes(),
+        }
+    }
+}
+
+impl std::fmt::Display for GridInfo {
+    /// `medium cloud, grid density: dense 64×51×59, 118421 active voxels, 0.74 MB`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [x, y, z] = self.dims;
+        let layout = match self.layout {
+            GridLayout::Bricks => "8³ bricks over",
+            _ => "dense",
+        };
+        write!(
+            f,
+            "medium {}, grid {}: {layout} {x}×{y}×{z}, {} active voxels, {:.2} MB",
+            self.medium,
+            self.grid,
+            self.active_voxels,
+            self.bytes as f64 / 1e6
+        )
+    }
 }
 
 /// The media on the two sides of a shape's surface (pbrt's medium interface). The exterior is
@@ -137,6 +186,8 @@ pub struct Scene {
     pub(crate) camera_medium: Option<u32>,
     /// The media that emit, as a source of photons.
     pub(crate) emissive_media: light::media::EmissiveMedia,
+    /// How each grid of the grid media is stored.
+    pub(crate) grids: Vec<GridInfo>,
     /// Render settings from the scene file (`[render]`) or the builder; a render takes settings
     /// of its own, usually these with changes.
     pub settings: RenderSettings,
@@ -314,6 +365,11 @@ impl Scene {
             Some((m, _)) => m,
             None => self.camera_medium,
         }
+    }
+
+    /// How the grids of the scene's grid media are stored: one entry per grid.
+    pub fn grids(&self) -> &[GridInfo] {
+        &self.grids
     }
 
     /// True if some medium of the scene emits light.

@@ -26,6 +26,62 @@ enum What {
     /// Ray queries alone: closest-hit and occlusion rays per second for camera, incoherent and
     /// shadow rays, on 1 and 2 threads, beside Embree's with `--embree`.
     Rays(crate::rays::RaysArgs),
+    /// How one grid of an OpenVDB file is stored and how fast it is looked up: its size, load
+    /// time and ns per random trilinear lookup (one thread), in every layout it fits in.
+    Grid(GridArgs),
+}
+
+#[derive(Args)]
+pub(crate) struct GridArgs {
+    /// The OpenVDB file.
+    file: PathBuf,
+    /// The float grid to measure.
+    #[arg(long, default_value = "density")]
+    grid: String,
+    /// Random lookups per layout.
+    #[arg(long, value_name = "N", default_value_t = 20_000_000)]
+    lookups: usize,
+    /// Rounds (layouts alternate within each round).
+    #[arg(long, value_name = "R", default_value_t = 3)]
+    rounds: usize,
+}
+
+/// `haze bench grid`: a Markdown table, one row per layout and round.
+fn grid(args: GridArgs) -> Result<()> {
+    use haze::scene::GridLayout;
+    println!(
+        "{} grid `{}`, {} lookups per row, 1 thread",
+        args.file.display(),
+        args.grid,
+        args.lookups
+    );
+    println!();
+    println!(
+        "| round | layout | box (voxels) | active voxels | MB | load s | ns/lookup | checksum |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    let auto = haze::gridbench::measure_grid(&args.file, &args.grid, GridLayout::Auto, 1, 1)?;
+    println!("(auto chooses {:?})", auto.layout);
+    for round in 1..=args.rounds {
+        for layout in [GridLayout::Dense, GridLayout::Bricks] {
+            match haze::gridbench::measure_grid(&args.file, &args.grid, layout, args.lookups, 1) {
+                Ok(m) => {
+                    let [x, y, z] = m.dims;
+                    println!(
+                        "| {round} | {:?} | {x}×{y}×{z} | {} | {:.2} | {:.3} | {:.1} | {:.6e} |",
+                        m.layout,
+                        m.active_voxels,
+                        m.bytes as f64 / 1e6,
+                        m.load_seconds,
+                        m.ns_per_lookup,
+                        m.checksum
+                    );
+                }
+                Err(e) => println!("| {round} | {layout:?} | — | — | — | — | — | {e} |"),
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Step times summed over iterations, and the photons stored.
@@ -51,8 +107,10 @@ impl Totals {
 }
 
 pub(crate) fn run(args: BenchArgs) -> Result<()> {
-    if let Some(What::Rays(rays)) = args.what {
-        return crate::rays::run(rays);
+    match args.what {
+        Some(What::Rays(rays)) => return crate::rays::run(rays),
+        Some(What::Grid(g)) => return grid(g),
+        None => {}
     }
     let path = args.scene.unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
     let scene = args.overrides.load_scene(&path)?;

@@ -136,6 +136,12 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let pool = thread_pool(args.overrides.threads)?;
     let interrupt = Interrupt::install()?;
     let stop = interrupt.flag();
+    if !args.quiet {
+        // How each grid is stored (dense or bricks), so that memory is never a surprise.
+        for g in scene.grids() {
+            eprintln!("{g}");
+        }
+    }
     let bar = if args.quiet { ProgressBar::hidden() } else { progress_bar(&settings) };
     // Every write of the outputs — snapshots and the last — in one place: the partial render if
     // asked for, then the image unless the output is a partial alone; a second signal waits.
