@@ -299,6 +299,26 @@ fn furnace_cases(media_dir: &Path) -> Vec<Case> {
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
+    // Coloured extinction in a grid (σ_t 1, 2 and 3 in the three channels, albedo 1): spectral
+    // tracking must keep every channel at L_e. The kernel bias is bounded as above with the
+    // channel whose σ e^{−σ (1 − r)} is largest (σ = 1).
+    let coloured_bias = move |r: f64| r / (2.0 * cos_max) * (-(1.0 - r)).exp();
+    out.push(Case {
+        name: "white furnace, coloured σ_t (1, 2, 3), g 0.5".into(),
+        medium: "vdb",
+        toml: format!(
+            "{camera}[media.fog]\ntype = \"vdb\"\nfile = \"{}\"\nsigma_a = 0\nsigma_s = [1, 2, 3]\ng = 0.5\ntransform = {{ scale = {}, translate = [-1, -1, -1] }}\n\n{}",
+            toml_path(&media_dir.join("box.vdb")),
+            2.0 / (15.0 / 16.0),
+            furnace_walls(1.0)
+        ),
+        reference: 1.0,
+        bias: Box::new(move |_, r| coloured_bias(r)),
+        setup_bias: 0.0,
+        max_bounces: 10_000,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
+    });
     out
 }
 

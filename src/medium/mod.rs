@@ -50,6 +50,9 @@ pub enum Medium {
 /// Transmittance along one ray segment, T(0, t), for many lookups (the beam estimate asks it for
 /// every photon on the segment).
 #[derive(Clone, Debug)]
+// One per eye segment, on the stack, never stored in bulk: the step function's 16 inline steps
+// (no allocation on most segments) are worth the size.
+#[allow(clippy::large_enum_variant)]
 pub enum SegmentTransmittance {
     /// One ratio-tracking estimate kept as a step function (heterogeneous media).
     Steps(vdb::TransmittanceSteps),
@@ -77,14 +80,15 @@ impl SegmentTransmittance {
             SegmentTransmittance::Grey { sigma_t } => {
                 Rgb::splat(if *sigma_t > 0.0 { (-sigma_t * t).exp() } else { 1.0 })
             }
-            SegmentTransmittance::Steps(steps) => Rgb::splat(vdb::steps_at(steps, t)),
+            SegmentTransmittance::Steps(steps) => vdb::steps_at(steps, t),
         }
     }
 }
 
 /// Distances along a segment, [t0, t1], with density proportional to its transmittance: a
 /// truncated exponential of the mean extinction in a homogeneous medium, the ratio-tracking step
-/// function of the segment in a grid (the density then depends on that estimate, which is
+/// function of the segment in a grid (its largest channel, for a coloured extinction; the density
+/// then depends on that estimate, which is
 /// independent of the distance drawn, so an estimator linear in the transmittance stays unbiased).
 /// One of the two distance strategies of single scattering (the other is equiangular sampling).
 pub struct TransmittanceDistance<'a> {
@@ -145,7 +149,9 @@ impl<'a> TransmittanceDistance<'a> {
             return 0.0;
         }
         match self.tr {
-            SegmentTransmittance::Steps(steps) => vdb::steps_at(steps, t) / self.total,
+            SegmentTransmittance::Steps(steps) => {
+                vdb::steps_at(steps, t).max_element() / self.total
+            }
             _ => self.sigma * (-self.sigma * (t - self.t0)).exp() / self.total,
         }
     }
@@ -153,19 +159,21 @@ impl<'a> TransmittanceDistance<'a> {
 
 /// Interval i of a transmittance step function clipped to [t0, t1]: [t0, s_1), [s_1, s_2), …,
 /// [s_n, t1], where T is 1 on the first and the value after step k on the others.
-fn step_interval(steps: &[(f32, f32)], i: usize, t0: f32, t1: f32) -> (f32, f32) {
+fn step_interval(steps: &[(f32, Rgb)], i: usize, t0: f32, t1: f32) -> (f32, f32) {
     let lo = if i == 0 { t0 } else { steps[i - 1].0.clamp(t0, t1) };
     let hi = if i < steps.len() { steps[i].0.clamp(t0, t1) } else { t1 };
     (lo, hi)
 }
 
-/// T on interval i of a step function (see [`step_interval`]).
-fn step_value(steps: &[(f32, f32)], i: usize) -> f32 {
-    if i == 0 { 1.0 } else { steps[i - 1].1 }
+/// The distances' density (unnormalised) on interval i of a step function (see
+/// [`step_interval`]): the largest channel of T there (T itself for grey media), positive wherever
+/// some channel is.
+fn step_value(steps: &[(f32, Rgb)], i: usize) -> f32 {
+    if i == 0 { 1.0 } else { steps[i - 1].1.max_element() }
 }
 
 /// Cumulative ∫ T over the intervals of a step function clipped to [t0, t1].
-fn step_areas(steps: &[(f32, f32)], t0: f32, t1: f32) -> StepAreas {
+fn step_areas(steps: &[(f32, Rgb)], t0: f32, t1: f32) -> StepAreas {
     let mut total = 0.0;
     (0..=steps.len())
         .map(|i| {

@@ -217,18 +217,6 @@ impl SceneBuilder {
             MediumDesc::Vdb {
                 file, grid, density_scale, transform, temperature, layout, ..
             } => {
-                let t = sigma_a + sigma_s;
-                // Equal up to f32 rounding (albedo · σ_t + (1 − albedo) · σ_t need not sum
-                // exactly).
-                if t.max_element() - t.min_element() > 1e-5 * t.max_element() {
-                    return Err(invalid(
-                        key("sigma_s"),
-                        format!(
-                            "a grid medium needs the same extinction σ_a + σ_s in every channel \
-                             (delta tracking), got {t}; colour the albedo instead"
-                        ),
-                    ));
-                }
                 if !(density_scale.is_finite() && density_scale >= 0.0) {
                     return Err(invalid(
                         key("density_scale"),

@@ -160,7 +160,7 @@ pub enum MediumDesc {
         density_scale: f32,
         /// Absorption per unit density.
         sigma_a: Rgb,
-        /// Scattering per unit density (σ_a + σ_s must be grey).
+        /// Scattering per unit density (σ_a + σ_s may be coloured).
         sigma_s: Rgb,
         /// Mean cosine of the phase function.
         g: f32,
