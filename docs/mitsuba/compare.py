@@ -99,10 +99,18 @@ def medium_dict(mi, name, m, scene_dir, tmp):
     corner = g["origin"] + g["voxel"] * (g["lo"] - 1.5)
     to_world = (placement(mi, m.get("transform", {})) @ T().translate(corner.tolist())
                 @ T().scale((g["voxel"] * n).tolist()))
-    # Mitsuba's VolumeGrid wants (z, y, x, channels).
-    data = np.ascontiguousarray(np.transpose(dens, (2, 1, 0))[..., None], dtype=np.float32)
+    # Mitsuba's VolumeGrid wants (z, y, x, channels). A coloured σ_t becomes an RGB grid of
+    # density · σ_t (Mitsuba's heterogeneous medium takes RGB extinction volumes).
+    dens = np.transpose(dens, (2, 1, 0))[..., None]
+    coloured = np.ptp(sigma_t) > 1e-6 * sigma_t.max()
+    if coloured:
+        data = np.ascontiguousarray(dens * sigma_t[None, None, None, :], dtype=np.float32)
+        scale = float(m.get("density_scale", 1.0))
+    else:
+        data = np.ascontiguousarray(dens, dtype=np.float32)
+        scale = float(m.get("density_scale", 1.0) * sigma_t.mean())
     return {"type": "heterogeneous", "phase": phase, "albedo": rgb(albedo.tolist()),
-            "scale": float(m.get("density_scale", 1.0) * sigma_t.mean()),
+            "scale": scale,
             "sigma_t": {"type": "gridvolume", "grid": mi.VolumeGrid(data),
                         "to_world": to_world, "filter_type": "trilinear"}}
 

@@ -540,6 +540,11 @@ impl VdbMedium {
                 return false;
             }
             a *= Rgb::ONE - q;
+            // Only ratios of the A_c count: rescale before they underflow (a long walk through
+            // dense smoke multiplies hundreds of factors), which would make 0/0.
+            if a.max_element() < 1e-20 {
+                a /= a.max_element();
+            }
             true
         });
         if !complete {
