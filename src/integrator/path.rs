@@ -134,7 +134,11 @@ impl EyeVisitor for PathEye<'_> {
         if !flight.scattered {
             return Next::Continue;
         }
-        if path.last() {
+        // At the last event only emission can still arrive without another one: from lights,
+        // which the segment's single scattering counted, and from emitting media along the next
+        // ray, which only following the path finds (the walker gathers it, and nothing else,
+        // after the last event).
+        if path.last() && !path.scene.has_emissive_media() {
             return Next::Stop;
         }
         let x = o + d * flight.t;
@@ -173,7 +177,7 @@ impl EyeVisitor for PathEye<'_> {
                 |wi| material.eval(wo, wi, hit_ng, hit_ns, Transport::Radiance),
                 |wi| if last { 0.0 } else { material.pdf(wo, wi, hit_ng, hit_ns) },
             );
-        if last {
+        if last && !path.scene.has_emissive_media() {
             return Next::Stop;
         }
         let u = path.s.next_2d();
@@ -182,7 +186,9 @@ impl EyeVisitor for PathEye<'_> {
         };
         path.beta *= bs.weight;
         self.count_emission = false;
-        self.scattered_from = Some((r, bs.pdf));
+        // After the last event the path only gathers emitting media's light (next-event
+        // estimation counted the emitters in full there: no MIS weight for one it reaches).
+        self.scattered_from = if last { None } else { Some((r, bs.pdf)) };
         Next::Scatter { o: r.p, d: bs.wi }
     }
 

@@ -109,21 +109,23 @@ pub(crate) fn single_scattering(
         if pdf > 0.0 && t.is_finite() {
             let x = o + d * t;
             let p_light = lights.prob(&Receiver::medium(x), li);
-            // A light the sampler gives no chance at x cannot light x (the transmittance
-            // strategy, which alone reaches every light, relies on that), but for the f32
-            // rounding of the light tree's cone test at the very edge of a spot's falloff, where
-            // the light is next to nothing: add nothing. (Going on divided by p_light = 0:
-            // 0 · ∞ = NaN, 2 samples in 12 M on scenes/coloured-smoke.toml's spotlight.)
-            if p_light > 0.0 {
+            // A light the sampler gives no chance at x cannot light x (outside a spot's cone,
+            // behind a panel; the transmittance strategy, which alone reaches every light,
+            // relies on that), but for the f32 rounding of the light tree's cone test at the
+            // edge of a spot's falloff, where the light is next to nothing: no light part then
+            // (it divided by p_light = 0: 0 · ∞ = NaN, 2 samples in 12 M on
+            // scenes/coloured-smoke.toml), while the phase part stays.
+            let c = if p_light > 0.0 {
                 let connection = Connection { li, p_light, point: Some(y) };
                 // The light part's two densities over (t, light, point) against the phase part's
                 // two over t (module docs): with one light they are equal.
                 let (pa, pe) = (p_a(t), p_e(t));
                 let ratio = (pe + pa) / (pa + p_seg * pe / p_light);
-                let c =
-                    in_scattered(scene, lights, (id, medium), x, d, Some(&connection), ratio, s);
-                sum += tr.at(t) * c / (pe + pa);
-            }
+                in_scattered(scene, lights, (id, medium), x, d, Some(&connection), ratio, s)
+            } else {
+                in_scattered(scene, lights, (id, medium), x, d, None, 0.0, s)
+            };
+            sum += tr.at(t) * c / (p_e(t) + p_a(t));
         }
     }
     if let Some((t, pdf)) = t_a {

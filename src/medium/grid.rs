@@ -617,8 +617,8 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
     }
     if let Some((p, v)) = c.bad {
         return Err(err(format!(
-            "grid `{name}` has a density of {v} at index {p}; densities must be finite and \
-             non-negative"
+            "grid `{name}` has a value of {v} at index {p}; its values (densities, temperatures) \
+             must be finite and non-negative"
         )));
     }
     // In 64 bits: far-apart voxels would overflow i32 extents and their u64 product.

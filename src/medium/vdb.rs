@@ -64,6 +64,9 @@ const SPLIT_STEPS: f32 = 256.0;
 /// for 1.1× the render time. It costs only on segments through emitting grids.
 const EMISSION_RATE: f32 = 8.0;
 
+/// Transmittance below which the emission estimate plays Russian roulette.
+const EMISSION_ROULETTE: f32 = 0.01;
+
 /// Largest number of bisections of one cell's piece of a ray.
 const MAX_SPLITS: u32 = 64;
 
@@ -251,9 +254,9 @@ impl VdbMedium {
     }
 
     /// The grid's density (scaled), its map from scene to index space, and the majorant cells
-    /// (count and index-space origin), for samplers of the medium's emission.
-    pub(crate) fn layout(&self) -> (&DensityGrid, Affine3A, IVec3, Vec3) {
-        (&self.grid, self.to_index, self.cells, self.lo)
+    /// (count, index-space origin and majorants), for samplers of the medium's emission.
+    pub(crate) fn layout(&self) -> (&DensityGrid, Affine3A, IVec3, Vec3, &[f32]) {
+        (&self.grid, self.to_index, self.cells, self.lo, &self.majorant)
     }
 
     /// σ_a per unit of (scaled) density.
@@ -280,11 +283,22 @@ impl VdbMedium {
         let mut tr = Rgb::ONE;
         let mut sum = Rgb::ZERO;
         let tint = self.tint.unwrap_or(Rgb::ONE);
-        self.tentative(o, d, t_max, EMISSION_RATE, s, |t, sigma_t, mu, _| {
+        self.tentative(o, d, t_max, EMISSION_RATE, s, |t, sigma_t, mu, s| {
             if sigma_t > 0.0 {
                 let p = o + d * t;
                 sum += self.absorption_share * (tr * (sigma_t / mu)) * self.le(p);
                 tr = (tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO);
+                // Russian roulette once the transmittance is small (unbiased: survivors are
+                // divided by their chance), so that a walk through thick emitting smoke ends
+                // long before its factors of 7/8 at the raised rate underflow.
+                let m = tr.max_element();
+                if m > 0.0 && m < EMISSION_ROULETTE {
+                    let q = m / EMISSION_ROULETTE;
+                    if s.next_f32() >= q {
+                        return false;
+                    }
+                    tr /= q;
+                }
             }
             tr.max_element() > 0.0
         });
@@ -534,7 +548,9 @@ impl VdbMedium {
         let mut last = 0.0;
         let complete = self.tentative(o, d, t_max, 1.0, s, |t, sigma_t, mu, s| {
             last = t;
-            let q = tint * (sigma_t / mu);
+            // At most 1: trilinear weights may sum to a few ulps over 1 where the density
+            // equals its majorant.
+            let q = (tint * (sigma_t / mu)).min(Rgb::ONE);
             if s.next_f32() < q[h] {
                 hit = Some((t, a / (mu * (a * q).element_sum() / 3.0)));
                 return false;
@@ -542,8 +558,9 @@ impl VdbMedium {
             a *= Rgb::ONE - q;
             // Only ratios of the A_c count: rescale before they underflow (a long walk through
             // dense smoke multiplies hundreds of factors), which would make 0/0.
-            if a.max_element() < 1e-20 {
-                a /= a.max_element();
+            let m = a.max_element();
+            if m < 1e-20 && m > 0.0 {
+                a /= m;
             }
             true
         });

@@ -232,6 +232,18 @@ impl SceneBuilder {
                     Some(t) => Some(self.temperature_field(name, &file, &t, to_scene, layout)?),
                     None => None,
                 };
+                // The largest extinction must be a finite f32, or tracking divides ∞ by ∞.
+                let peak = grid.max_density * density_scale * (sigma_a + sigma_s).max_element();
+                if !peak.is_finite() {
+                    return Err(invalid(
+                        key("density_scale"),
+                        format!(
+                            "the largest extinction, {} (grid maximum) × {density_scale} × σ_t, \
+                             overflows single precision; scale the coefficients down",
+                            grid.max_density
+                        ),
+                    ));
+                }
                 self.grids.push(GridInfo::of(name, &grid_name, &grid));
                 if let Some(t) = &temperature {
                     self.grids.push(GridInfo::of(name, &t.name, &t.grid));

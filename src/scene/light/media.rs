@@ -42,7 +42,8 @@ enum Region {
         lo: Vec3,
         cells: IVec3,
         ids: Vec<u32>,
-        cdf: Vec<f32>,
+        /// In f64: with millions of cells a small cell's weight must not vanish in the sum.
+        cdf: Vec<f64>,
         /// Scene-space volume of one cell.
         cell_volume: f32,
     },
@@ -148,8 +149,9 @@ impl EmissiveMedia {
             Region::Box { lo, size } => (*lo + *size * u_pos, 1.0 / (size.x * size.y * size.z)),
             Region::Cells { to_scene, lo, cells, ids, cdf, cell_volume } => {
                 let total = *cdf.last()?;
-                let j = cdf.partition_point(|&c| c <= u_cell * total).min(cdf.len() - 1);
+                let j = cdf.partition_point(|&c| c <= u_cell as f64 * total).min(cdf.len() - 1);
                 let weight = cdf[j] - if j == 0 { 0.0 } else { cdf[j - 1] };
+                let (weight, total) = (weight as f32, total as f32);
                 let id = ids[j] as i32;
                 let cell = IVec3::new(id % cells.x, id / cells.x % cells.y, id / cells.x / cells.y);
                 let q = *lo + (cell.as_vec3() + u_pos) * MAJORANT_CELL as f32;
@@ -171,7 +173,7 @@ impl EmissiveMedia {
 
 /// The cells of a grid medium with their weights (module docs), and the medium's estimated power.
 fn grid_cells(m: &Medium, v: &crate::medium::vdb::VdbMedium) -> (Region, f32) {
-    let (grid, to_index, cells, lo) = v.layout();
+    let (grid, to_index, cells, lo, majorant) = v.layout();
     let to_scene = to_index.inverse();
     let cell = MAJORANT_CELL;
     let cell_volume = to_scene.matrix3.determinant().abs() * (cell * cell * cell) as f32;
@@ -183,6 +185,10 @@ fn grid_cells(m: &Medium, v: &crate::medium::vdb::VdbMedium) -> (Region, f32) {
     let weights: Vec<f32> = (0..count)
         .into_par_iter()
         .map(|i| {
+            // A cell without density emits nothing (and costs no lookups).
+            if majorant[i] <= 0.0 {
+                return 0.0;
+            }
             let i = i as i32;
             let c = IVec3::new(i % cells.x, i / cells.x % cells.y, i / cells.x / cells.y);
             let base = (lo + (c * cell).as_vec3()).as_ivec3();
@@ -209,15 +215,15 @@ fn grid_cells(m: &Medium, v: &crate::medium::vdb::VdbMedium) -> (Region, f32) {
             mean + GUARD * max_density * sigma_a_per_density * le_bound
         })
         .collect();
-    let (mut ids, mut cdf, mut total, mut power) = (Vec::new(), Vec::new(), 0.0f32, 0.0f64);
+    let (mut ids, mut cdf, mut total) = (Vec::new(), Vec::new(), 0.0f64);
     for (i, w) in weights.into_iter().enumerate() {
         if w > 0.0 && w.is_finite() {
-            total += w;
+            total += w as f64;
             ids.push(i as u32);
             cdf.push(total);
-            power += w as f64;
         }
     }
+    let power = total;
     let power = (4.0 * PI as f64 * power * cell_volume as f64) as f32;
     (Region::Cells { to_scene, lo, cells, ids, cdf, cell_volume }, power)
 }
