@@ -18,7 +18,7 @@ use crate::medium::Medium;
 use crate::medium::grid::DensityGrid;
 use crate::medium::homogeneous::Homogeneous;
 use crate::medium::phase::HenyeyGreenstein;
-use crate::medium::vdb::{TemperatureField, VdbMedium};
+use crate::medium::vdb::{ColourField, TemperatureField, VdbMedium};
 use crate::settings::RenderSettings;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -198,7 +198,8 @@ impl SceneBuilder {
         check_color(key("sigma_s"), sigma_s, None)?;
         check_color(key("emission"), emission, None)?;
         let emits = emission.max_element() > 0.0
-            || matches!(&desc, MediumDesc::Vdb { temperature: Some(_), .. });
+            || matches!(&desc, MediumDesc::Vdb { temperature: Some(_), .. })
+            || matches!(&desc, MediumDesc::Vdb { emission_grid: Some(_), .. });
         if emits && sigma_a.max_element() <= 0.0 {
             return Err(invalid(
                 key("emission"),
@@ -215,7 +216,14 @@ impl SceneBuilder {
                 Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase, emission })
             }
             MediumDesc::Vdb {
-                file, grid, density_scale, transform, temperature, layout, ..
+                file,
+                grid,
+                density_scale,
+                transform,
+                temperature,
+                emission_grid,
+                layout,
+                ..
             } => {
                 if !(density_scale.is_finite() && density_scale >= 0.0) {
                     return Err(invalid(
@@ -248,8 +256,29 @@ impl SceneBuilder {
                 if let Some(t) = &temperature {
                     self.grids.push(GridInfo::of(name, &t.name, &t.grid));
                 }
+                let colour = match emission_grid.map(|b| *b) {
+                    Some((names, scale)) => {
+                        let ekey = |k: &str| format!("media.{name}.emission_grid.{k}");
+                        if !(scale.is_finite() && scale >= 0.0) {
+                            let message = format!("must be finite and non-negative, got {scale}");
+                            return Err(invalid(ekey("scale"), message));
+                        }
+                        let mut grids = Vec::new();
+                        for n in &names {
+                            let g = DensityGrid::load_with(&file, n, layout).map_err(|e| {
+                                invalid(ekey("grids"), self.relative_note(&file, e.to_string()))
+                            })?;
+                            self.grids.push(GridInfo::of(name, n, &g));
+                            grids.push(g);
+                        }
+                        let grids: [DensityGrid; 3] = grids.try_into().expect("three grids");
+                        Some(ColourField::new(grids, names, to_scene, scale))
+                    }
+                    None => None,
+                };
                 let medium = VdbMedium::new(grid, to_scene, density_scale, sigma_a, sigma_s, phase);
-                Medium::Vdb(Box::new(medium.with_emission(emission, temperature)))
+                let medium = medium.with_emission(emission, temperature).with_emission_grid(colour);
+                Medium::Vdb(Box::new(medium))
             }
         };
         self.media.push((name.to_string(), medium));

@@ -169,6 +169,9 @@ pub enum MediumDesc {
         emission: Rgb,
         /// Blackbody emission from a temperature grid, added to `emission`.
         temperature: Option<TemperatureDesc>,
+        /// Emitted radiance from three float grids (R, G, B) of the same file, times a scale,
+        /// added to the rest.
+        emission_grid: Option<Box<([String; 3], f32)>>,
         /// How the grids are stored (dense or in bricks; by default chosen per grid).
         layout: GridLayout,
         /// Places the grid's world space in the scene.
@@ -230,6 +233,7 @@ impl MediumDesc {
             g: 0.0,
             emission: Rgb::ZERO,
             temperature: None,
+            emission_grid: None,
             layout: GridLayout::Auto,
             transform: Transform::default(),
         }
@@ -251,6 +255,15 @@ impl MediumDesc {
     pub fn layout(mut self, l: GridLayout) -> Self {
         if let MediumDesc::Vdb { layout, .. } = &mut self {
             *layout = l;
+        }
+        self
+    }
+
+    /// Grid media: emitted radiance `scale` × (R, G, B) read from three float grids of the file
+    /// (OpenVDB's vector grids cannot be read; export their channels as float grids).
+    pub fn emission_grid(mut self, grids: [&str; 3], scale: f32) -> Self {
+        if let MediumDesc::Vdb { emission_grid, .. } = &mut self {
+            *emission_grid = Some(Box::new((grids.map(str::to_string), scale)));
         }
         self
     }

@@ -123,6 +123,13 @@ pub struct TemperatureDef {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
+pub struct EmissionGridDef {
+    pub grids: [String; 3],
+    pub scale: Option<f32>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct VdbDef {
     #[serde(rename = "type")]
     pub _kind: String,
@@ -136,6 +143,7 @@ pub struct VdbDef {
     pub g: Option<f32>,
     pub emission: Option<ColorDef>,
     pub temperature: Option<TemperatureDef>,
+    pub emission_grid: Option<Box<EmissionGridDef>>,
     pub layout: Option<LayoutDef>,
     #[serde(default)]
     pub transform: TransformDef,

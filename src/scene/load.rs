@@ -251,6 +251,10 @@ fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium
                 blackbody_scale: t.blackbody_scale.unwrap_or(default.blackbody_scale),
             }
         }),
+        emission_grid: d
+            .emission_grid
+            .as_ref()
+            .map(|e| Box::new((e.grids.clone(), e.scale.unwrap_or(1.0)))),
         layout: match d.layout {
             None | Some(LayoutDef::Auto) => GridLayout::Auto,
             Some(LayoutDef::Dense) => GridLayout::Dense,

@@ -269,6 +269,18 @@ fn bad_grid_media_name_the_key_and_the_volume_file() {
         &["media.cloud.emission", "σ_a = 0"],
     );
     load(&vdb("fire.vdb", "emission = 0.5\ntemperature = { cutoff = 800 }\n")).unwrap();
+    // Colour grids: three float grids of the file; a missing one is named with the file's grids.
+    let colour =
+        "emission_grid = { grids = [\"density\", \"temperature\", \"density\"], scale = 0.01 }\n";
+    load(&vdb("fire.vdb", colour)).unwrap();
+    expect_error(
+        &vdb("cloud.vdb", "emission_grid = { grids = [\"r\", \"g\", \"b\"] }\n"),
+        &["media.cloud.emission_grid.grids", "no grid named `r`", "density"],
+    );
+    expect_error(
+        &vdb("cloud.vdb", "emission_grid = { grids = [\"density\", \"density\"] }\n"),
+        &["media.cloud.emission_grid"],
+    );
 }
 
 /// No input makes the loader panic: thousands of random corruptions of the documented example

@@ -179,7 +179,8 @@ fn grid_cells(m: &Medium, v: &crate::medium::vdb::VdbMedium) -> (Region, f32) {
     let cell_volume = to_scene.matrix3.determinant().abs() * (cell * cell * cell) as f32;
     // A bound on L_e's mean channel, for the guard.
     let le_bound = luminance(v.emission()).max(0.0)
-        + v.temperature().map_or(0.0, |t| t.blackbody_scale * blackbody::peak_luminance());
+        + v.temperature().map_or(0.0, |t| t.blackbody_scale * blackbody::peak_luminance())
+        + v.emission_grid().map_or(0.0, |c| c.bound());
     let sigma_a_per_density = luminance(v.sigma_a_per_density());
     let count = (cells.x * cells.y * cells.z) as usize;
     let weights: Vec<f32> = (0..count)
