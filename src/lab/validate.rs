@@ -189,6 +189,16 @@ fn toml_path(p: &Path) -> String {
     p.display().to_string().replace('\\', "/")
 }
 
+/// The grid medium's lines that fill the cube [-1, 1]³ with density 1: box.vdb holds density 1
+/// between its voxel centres, which a scale of 2/(15/16) and a shift of −1 map onto the cube.
+fn box_grid(media_dir: &Path) -> String {
+    format!(
+        "type = \"vdb\"\nfile = \"{}\"\ntransform = {{ scale = {}, translate = [-1, -1, -1] }}",
+        toml_path(&media_dir.join("box.vdb")),
+        2.0 / (15.0 / 16.0)
+    )
+}
+
 /// Inward-facing emitting walls of the cube [-1, 1]³, with the fog on their front side.
 fn furnace_walls(le: f64) -> String {
     let walls = [
@@ -281,15 +291,13 @@ fn furnace_cases(media_dir: &Path) -> Vec<Case> {
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
-    // The same with a constant grid: box.vdb holds density 1 between its voxel centres, which a
-    // scale of 2/(15/16) and a shift of −1 map onto the cube.
+    // The same with a constant grid ([`box_grid`]).
     out.push(Case {
         name: "white furnace (σ_t 2, g 0.5)".into(),
         medium: "vdb",
         toml: format!(
-            "{camera}[media.fog]\ntype = \"vdb\"\nfile = \"{}\"\nsigma_a = 0\nsigma_s = {sigma}\ng = 0.5\ntransform = {{ scale = {}, translate = [-1, -1, -1] }}\n\n{}",
-            toml_path(&media_dir.join("box.vdb")),
-            2.0 / (15.0 / 16.0),
+            "{camera}[media.fog]\n{}\nsigma_a = 0\nsigma_s = {sigma}\ng = 0.5\n\n{}",
+            box_grid(media_dir),
             furnace_walls(1.0)
         ),
         reference: 1.0,
@@ -307,9 +315,8 @@ fn furnace_cases(media_dir: &Path) -> Vec<Case> {
         name: "white furnace, coloured σ_t (1, 2, 3), g 0.5".into(),
         medium: "vdb",
         toml: format!(
-            "{camera}[media.fog]\ntype = \"vdb\"\nfile = \"{}\"\nsigma_a = 0\nsigma_s = [1, 2, 3]\ng = 0.5\ntransform = {{ scale = {}, translate = [-1, -1, -1] }}\n\n{}",
-            toml_path(&media_dir.join("box.vdb")),
-            2.0 / (15.0 / 16.0),
+            "{camera}[media.fog]\n{}\nsigma_a = 0\nsigma_s = [1, 2, 3]\ng = 0.5\n\n{}",
+            box_grid(media_dir),
             furnace_walls(1.0)
         ),
         reference: 1.0,
@@ -595,17 +602,9 @@ fn emission_cases(media_dir: &Path) -> Vec<Case> {
     // below the σ_t L_e = 2 it was derived for).
     let sigma = 2.0;
     let furnace_bias = move |r: f64| sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp();
-    for (medium, fog) in [
-        ("homogeneous", "type = \"homogeneous\"".to_string()),
-        (
-            "vdb",
-            format!(
-                "type = \"vdb\"\nfile = \"{}\"\ntransform = {{ scale = {}, translate = [-1, -1, -1] }}",
-                toml_path(&media_dir.join("box.vdb")),
-                2.0 / (15.0 / 16.0)
-            ),
-        ),
-    ] {
+    for (medium, fog) in
+        [("homogeneous", "type = \"homogeneous\"".to_string()), ("vdb", box_grid(media_dir))]
+    {
         out.push(Case {
             name: "emitting furnace (σ_a 0.5, σ_s 1.5, g 0.5)".into(),
             medium,
