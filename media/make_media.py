@@ -80,6 +80,28 @@ def tiles():
     write("tiles.vdb", [g])
 
 
+def half():
+    """Half-float copies (16-bit values, OpenVDB's saveFloatAsHalf), which vdb-rs 0.6 misreads
+    and haze decodes itself: cloud.vdb with each codec OpenVDB writes (vdb_tool from Debian's
+    libopenvdb-tools, `bits=16`), tiles.vdb (tiles as half floats), and a small grid from
+    pyopenvdb's own saveFloatAsHalf with the library's default codec (Blosc)."""
+    import subprocess
+
+    for src, codec in [("cloud", "zip"), ("cloud", "blosc"), ("cloud", "none"), ("tiles", "blosc")]:
+        out = os.path.join(HERE, f"half/{src}-{codec}.vdb")
+        os.makedirs(os.path.dirname(out), exist_ok=True)
+        subprocess.run(
+            ["vdb_tool", "-read", os.path.join(HERE, f"{src}.vdb"), "-write", f"codec={codec}",
+             "bits=16", out],
+            check=True, stdout=subprocess.DEVNULL,
+        )
+        print("wrote", os.path.relpath(out, HERE), os.path.getsize(out), "bytes")
+    g = grid(voxel=1.0 / 16.0)
+    set_voxels(g, (8, 8, 8), lambda i, j, k: 0.5)
+    g.saveFloatAsHalf = True
+    write("half/cube.vdb", [g])
+
+
 def main():
     # 1. A smooth procedural cloud, 64^3 voxels over [-1, 1]^3 (voxel 1/32).
     g = grid(voxel=1.0 / 32.0, origin=(-1.0, -1.0, -1.0))
@@ -90,6 +112,23 @@ def main():
     g = grid(voxel=1.0 / 16.0)
     set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
     write("box.vdb", [g])
+
+    # 2b. The same box with a single-scattering albedo that varies linearly along each axis, one
+    #     float grid per channel (vdb-rs reads no vector grids): R rises along x, G falls along
+    #     y, B rises along z, each within [0.1, 0.9] at voxel centres.
+    g = grid(voxel=1.0 / 16.0)
+    set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
+    channels = [
+        ("albedo.r", lambda i, j, k: 0.1 + 0.8 * i / 15.0),
+        ("albedo.g", lambda i, j, k: 0.9 - 0.8 * j / 15.0),
+        ("albedo.b", lambda i, j, k: 0.1 + 0.8 * k / 15.0),
+    ]
+    grids = [g]
+    for name, f in channels:
+        c = grid(name=name, voxel=1.0 / 16.0)
+        set_voxels(c, (16, 16, 16), f)
+        grids.append(c)
+    write("albedo.vdb", grids)
 
     # 3. A linear gradient slab: density = (i + 0.5) / 32 along x over [0, 1] x [0, 0.5]^2
     #    (voxel 1/32), i.e. density(x) = x at voxel centres.
@@ -114,14 +153,9 @@ def main():
 
     tiles()
 
-    # --- Files vdb-rs 0.6 would mishandle --------------------------------------------------
-    # Half-float storage with the library's default (compressed) codec: vdb-rs aborts the
-    # process when it reads this.
-    g = grid(voxel=1.0 / 16.0)
-    set_voxels(g, (8, 8, 8), lambda i, j, k: 0.5)
-    g.saveFloatAsHalf = True
-    write("bad/half-float.vdb", [g])
+    half()
 
+    # --- Files vdb-rs 0.6 would mishandle --------------------------------------------------
     # A vector grid named "density": vdb-rs would read its bytes as floats.
     v = vdb.Vec3SGrid((0.0, 0.0, 0.0))
     v.name = "density"

@@ -620,6 +620,26 @@ fn emission_cases(media_dir: &Path) -> Vec<Case> {
             photons_scale: 1,
         });
     }
+    // The same furnace with a single-scattering albedo that varies through the medium, from
+    // colour grids (media/albedo.vdb: linear along each axis, within [0.1, 0.9]): the radiance
+    // is L_e whatever the albedo field, since the medium emits σ_a(p) L_e wherever it absorbs.
+    // σ_t = 2 as above; the scattered source σ_s(p) L_e ≤ 1.8 keeps the wall bias bound, and a
+    // linear albedo adds no kernel bias inside (the kernel is symmetric).
+    let fog = box_grid(media_dir).replace("box.vdb", "albedo.vdb");
+    out.push(Case {
+        name: "emitting furnace, albedo grid (σ_t 2, g 0.5)".into(),
+        medium: "vdb",
+        toml: format!(
+            "{camera}[media.fog]\n{fog}\nsigma_a = 0.5\nsigma_s = 1.5\ng = 0.5\nemission = 1\nalbedo_grid = {{ grids = [\"albedo.r\", \"albedo.g\", \"albedo.b\"] }}\n\n{}",
+            furnace_walls(1.0)
+        ),
+        reference: 1.0,
+        bias: Box::new(move |_, r| furnace_bias(r)),
+        setup_bias: 0.0,
+        max_bounces: 10_000,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
+    });
     out
 }
 

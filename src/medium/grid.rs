@@ -6,7 +6,7 @@
 //!
 //! | vdb-rs 0.6 behaviour | haze's guard |
 //! |---|---|
-//! | half-float grids saved with zip or blosc compression **abort the process** | refused from the grid's metadata before any voxel is read |
+//! | half-float grids: it reads a block size where OpenVDB wrote none, and errs or **aborts** | haze reads them itself (`vdbscan.rs`: zip through flate2, Blosc through c-blosc) |
 //! | maps other than (uniform) scale / scale-translate `panic!` | the transform's map name is read from the file first; anything else is refused |
 //! | vector and other non-float grids are read as floats | the grid's tree type must be `Tree_float_5_4_3` |
 //! | two grids of the same name: one is silently dropped | the header's grid count must match the distinct names |
@@ -197,6 +197,11 @@ impl DensityGrid {
             let mut vdb = open(&bytes, path, name)?;
             check_names(&vdb, path, name)?;
             let gd = check_grid(&vdb, path, name, &bytes)?;
+            if super::vdbscan::is_half(&bytes, name).map_err(|e| volume_error(path, e))? {
+                // Decoded from the file's bytes in each pass; they stay until the copy is made.
+                let read = read_half(&bytes, &gd, path, name)?;
+                return build(&read, path, name, layout);
+            }
             read_grid(&mut vdb, &gd, path, name)?
         };
         drop(bytes);
@@ -466,14 +471,7 @@ fn check_grid<R: Read + Seek>(
         names.sort();
         return Err(err(format!("no grid named `{name}` (the file has {names:?})")));
     };
-    if gd.meta_data.is_half_float() || gd.grid_type.ends_with("_HalfFloat") {
-        return Err(err(format!(
-            "grid `{name}` is stored as 16-bit half floats, which vdb-rs 0.6 cannot read \
-             (it aborts on compressed half-float data); save it with full floats \
-             (pyopenvdb: grid.saveFloatAsHalf = False)"
-        )));
-    }
-    if gd.grid_type != "Tree_float_5_4_3" {
+    if gd.grid_type.strip_suffix("_HalfFloat").unwrap_or(&gd.grid_type) != "Tree_float_5_4_3" {
         return Err(err(format!(
             "grid `{name}` is of type {}, not a float grid (Tree_float_5_4_3)",
             gd.grid_type
@@ -502,13 +500,21 @@ fn check_grid<R: Read + Seek>(
     Ok(gd)
 }
 
-/// A grid as vdb-rs read it, with its translation and voxel size and the active-voxel count the
-/// file states.
-struct ReadGrid {
-    grid: vdb_rs::Grid<f32>,
+/// A grid as vdb-rs read it, or the bytes haze decodes a half-float grid from, with its
+/// translation and voxel size and the active-voxel count the file states.
+struct ReadGrid<'a> {
+    source: Source<'a>,
     translation: Vec3,
     voxel_size: Vec3,
     expected: Option<u64>,
+}
+
+/// Where a grid's voxels come from.
+enum Source<'a> {
+    /// vdb-rs's tree.
+    Vdb(Box<vdb_rs::Grid<f32>>),
+    /// The bytes of a file holding a half-float grid.
+    Half(&'a [u8]),
 }
 
 /// Reads the grid (any panic of vdb-rs contained).
@@ -517,7 +523,7 @@ fn read_grid<R: Read + Seek>(
     gd: &vdb_rs::GridDescriptor,
     path: &Path,
     name: &str,
-) -> Result<ReadGrid> {
+) -> Result<ReadGrid<'static>> {
     let err = |m: String| volume_error(path, m);
     let read =
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb.read_grid::<f32>(name)));
@@ -535,14 +541,40 @@ fn read_grid<R: Read + Seek>(
     };
     let translation = Vec3::from(translation.map(|x| x as f32));
     let voxel_size = Vec3::from(voxel_size.map(|x| x as f32));
+    checked(Source::Vdb(Box::new(grid)), translation, voxel_size, gd, path, name)
+}
+
+/// A half-float grid, to be decoded by haze from the file's bytes (vdb-rs 0.6 misreads it).
+fn read_half<'a>(
+    bytes: &'a [u8],
+    gd: &vdb_rs::GridDescriptor,
+    path: &Path,
+    name: &str,
+) -> Result<ReadGrid<'a>> {
+    let (t, v) = super::vdbscan::half_transform(bytes, name)
+        .map_err(|e| volume_error(path, format!("grid `{name}`: {e}")))?;
+    let (translation, voxel_size) =
+        (Vec3::from(t.map(|x| x as f32)), Vec3::from(v.map(|x| x as f32)));
+    checked(Source::Half(bytes), translation, voxel_size, gd, path, name)
+}
+
+/// The read grid with its transform checked and the voxel count its file states.
+fn checked<'a>(
+    source: Source<'a>,
+    translation: Vec3,
+    voxel_size: Vec3,
+    gd: &vdb_rs::GridDescriptor,
+    path: &Path,
+    name: &str,
+) -> Result<ReadGrid<'a>> {
     if !(voxel_size.min_element() > 0.0 && voxel_size.is_finite() && translation.is_finite()) {
-        return Err(err(format!("grid `{name}`: invalid voxel size {voxel_size}")));
+        return Err(volume_error(path, format!("grid `{name}`: invalid voxel size {voxel_size}")));
     }
     let expected = match gd.meta_data.0.get("file_voxel_count") {
         Some(vdb_rs::MetadataValue::I64(n)) => Some(*n as u64),
         _ => None,
     };
-    Ok(ReadGrid { grid, translation, voxel_size, expected })
+    Ok(ReadGrid { source, translation, voxel_size, expected })
 }
 
 /// Calls `f(first voxel, edge length in voxels, value)` for every active voxel and tile of the
@@ -554,8 +586,17 @@ fn for_each_item(
     name: &str,
     mut f: impl FnMut(IVec3, i32, f32),
 ) -> Result<()> {
+    let grid = match &read.source {
+        Source::Vdb(grid) => grid,
+        Source::Half(bytes) => {
+            return super::vdbscan::for_each_half(bytes, name, &mut |p, edge, v| {
+                f(IVec3::from(p), edge, v)
+            })
+            .map_err(|e| volume_error(path, format!("grid `{name}`: {e}")));
+        }
+    };
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        for (p, v, level) in read.grid.iter() {
+        for (p, v, level) in grid.iter() {
             f(IVec3::new(p.x as i32, p.y as i32, p.z as i32), level.scale() as i32, v);
         }
     }))
@@ -834,9 +875,52 @@ mod tests {
         }
     }
 
+    /// Every voxel of `half` is that of `full` rounded to a 16-bit float (OpenVDB and the `half`
+    /// crate both round to nearest even), in the same box and transform.
+    fn assert_half_of(half: &DensityGrid, full: &DensityGrid) {
+        assert_eq!((half.origin, half.dims), (full.origin, full.dims));
+        assert_eq!((half.translation, half.voxel_size), (full.translation, full.voxel_size));
+        assert_eq!(half.active_voxels, full.active_voxels);
+        let (lo, hi) = full.active_box;
+        let mut nonzero = 0;
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    let p = IVec3::new(x, y, z);
+                    let want = half::f16::from_f32(full.voxel(p)).to_f32();
+                    assert_eq!(half.voxel(p), want, "voxel {p}");
+                    nonzero += (want > 0.0) as usize;
+                }
+            }
+        }
+        assert!(nonzero > 500, "{nonzero} voxels compared");
+    }
+
+    #[test]
+    fn half_float_grids_are_their_full_float_sources_rounded() {
+        // vdb-rs 0.6 fails on every one of these (it reads a block size where OpenVDB wrote
+        // none); haze decodes them itself.
+        let cloud = DensityGrid::load(&media("cloud.vdb"), "density").unwrap();
+        for codec in ["zip", "blosc", "none"] {
+            let h = DensityGrid::load(&media(&format!("half/cloud-{codec}.vdb")), "density");
+            assert_half_of(&h.unwrap(), &cloud);
+        }
+        // Tiles (a 128³ internal-node tile and leaf-level tiles) stored as half floats.
+        for layout in [Layout::Dense, Layout::Bricks] {
+            let full = DensityGrid::load_with(&media("tiles.vdb"), "density", layout).unwrap();
+            let h = DensityGrid::load_with(&media("half/tiles-blosc.vdb"), "density", layout);
+            let h = h.unwrap();
+            assert_eq!(h.layout(), layout);
+            assert_half_of(&h, &full);
+        }
+        // pyopenvdb's saveFloatAsHalf with the library's default codec.
+        let cube = DensityGrid::load(&media("half/cube.vdb"), "density").unwrap();
+        assert_eq!((cube.active_voxels, cube.max_density), (512, 0.5));
+        assert_eq!(cube.voxel(IVec3::new(7, 0, 3)), 0.5);
+    }
+
     #[test]
     fn files_vdb_rs_would_crash_on_or_misread_are_clear_errors() {
-        expect_error(&media("bad/half-float.vdb"), "density", &["half floats"]);
         expect_error(&media("bad/vector.vdb"), "density", &["not a float grid"]);
         expect_error(&media("bad/affine.vdb"), "density", &["AffineMap"]);
         expect_error(&media("bad/duplicate.vdb"), "density", &["share the name"]);
@@ -850,6 +934,14 @@ mod tests {
         expect_error(&media("no-such-file.vdb"), "density", &["No such file"]);
 
         let dir = temp_dir("vdb");
+        for file in ["half/cloud-blosc.vdb", "half/cloud-zip.vdb"] {
+            let good = std::fs::read(media(file)).unwrap();
+            for cut in [200, good.len() / 3, good.len() - 100] {
+                let p = dir.join(format!("truncated-half-{cut}.vdb"));
+                std::fs::write(&p, &good[..cut]).unwrap();
+                expect_error(&p, "density", &["corrupt file at byte"]);
+            }
+        }
         let good = std::fs::read(media("cloud.vdb")).unwrap();
         for cut in [12, 200, good.len() / 3, good.len() - 100] {
             let p = dir.join(format!("truncated-{cut}.vdb"));
@@ -888,7 +980,14 @@ mod tests {
     /// down with it, so this test cannot pass by accident.
     #[test]
     fn single_byte_mutations_of_a_grid_never_abort() {
-        let good = std::fs::read(media("box.vdb")).unwrap();
+        // A full-float grid (read by vdb-rs) and a half-float one (read by haze's own decoder).
+        for file in ["box.vdb", "half/cube.vdb"] {
+            mutate_every_byte(&media(file));
+        }
+    }
+
+    fn mutate_every_byte(path: &Path) {
+        let good = std::fs::read(path).unwrap();
         let dir = temp_dir("vdb-mutations");
         let p = dir.join("m.vdb");
         let (mut ok, mut refused) = (0, 0);

@@ -10,9 +10,11 @@
 //! sigma_s = 4.0                 # … or albedo and sigma_t (σ_t may be coloured)
 //! g = 0.3
 //! transform = { scale = 1.5, translate = [0, 1, 0] }   # grid space → scene
+//! # optional: albedo_grid = { grids = ["albedo.r", "albedo.g", "albedo.b"] }  # σ_s(p) = a(p) σ_t(p)
 //! ```
 //!
-//! σ_x(p) = density_scale · density(p) · σ_x, with density(p) trilinear between voxel centres.
+//! σ_x(p) = density_scale · density(p) · σ_x, with density(p) trilinear between voxel centres;
+//! with an albedo grid, σ_s(p) = a(p) σ_t(p) and σ_a(p) = (1 − a(p)) σ_t(p) instead.
 //! Free flights are sampled by delta tracking (Woodcock et al. 1965) against a piecewise-constant
 //! majorant: a coarse grid holding, per cell of [`MAJORANT_CELL`]³ voxels, the largest density
 //! any point of the cell can interpolate to, walked with a 3-D DDA so empty cells cost one step.
@@ -100,6 +102,9 @@ pub struct VdbMedium {
     temperature: Option<Box<TemperatureField>>,
     /// Emitted radiance from colour grids, added to both.
     emission_grid: Option<Box<ColourField>>,
+    /// Single-scattering albedo from colour grids, replacing the constant σ_s / σ_t: σ_s(p) =
+    /// albedo(p) σ_t(p), σ_a(p) = (1 − albedo(p)) σ_t(p).
+    albedo_grid: Option<Box<ColourField>>,
     phase: HenyeyGreenstein,
     /// Majorant densities per coarse cell (x fastest), covering index space from `lo`.
     majorant: Vec<f32>,
@@ -198,15 +203,20 @@ impl ColourField {
         Self { names, grids, to_index, scale }
     }
 
-    /// Emitted radiance at scene point `p`.
+    /// The field's value (the three grids' trilinear values times the scale) at scene point `p`.
     #[inline]
-    pub fn le(&self, p: Vec3) -> Rgb {
+    pub fn at(&self, p: Vec3) -> Rgb {
         let v =
             [0, 1, 2].map(|c| self.grids[c].density_index(self.to_index[c].transform_point3(p)));
         Rgb::from(v) * self.scale
     }
 
-    /// A bound on the mean channel of the emitted radiance anywhere.
+    /// The largest value of any channel (each grid's maximum times the scale).
+    pub fn max_value(&self) -> f32 {
+        self.grids.iter().map(|g| g.max_density).fold(0.0, f32::max) * self.scale
+    }
+
+    /// A bound on the mean channel of the field anywhere.
     pub(crate) fn bound(&self) -> f32 {
         self.grids.iter().map(|g| g.max_density).sum::<f32>() / 3.0 * self.scale
     }
@@ -257,6 +267,7 @@ impl VdbMedium {
             emission: Rgb::ZERO,
             temperature: None,
             emission_grid: None,
+            albedo_grid: None,
             phase,
             majorant,
             cells,
@@ -280,6 +291,22 @@ impl VdbMedium {
         self
     }
 
+    /// The medium with its albedo from colour grids (values in [0, 1]; the caller checks), in
+    /// place of the constant σ_s / σ_t it was built with: its extinction stays.
+    pub fn with_albedo_grid(mut self, field: Option<ColourField>) -> Self {
+        self.albedo_grid = field.map(Box::new);
+        self
+    }
+
+    /// σ_a / (the scalar σ_t) at `p`, per channel.
+    #[inline]
+    fn absorption_share_at(&self, p: Vec3) -> Rgb {
+        match &self.albedo_grid {
+            Some(a) => (Rgb::ONE - a.at(p)).max(Rgb::ZERO) * self.tint.unwrap_or(Rgb::ONE),
+            None => self.absorption_share,
+        }
+    }
+
     /// The colour grids' emission, if any.
     pub(crate) fn emission_grid(&self) -> Option<&ColourField> {
         self.emission_grid.as_deref()
@@ -287,7 +314,7 @@ impl VdbMedium {
 
     /// True if the medium can emit (it absorbs somewhere, and some emission is given).
     pub fn emits(&self) -> bool {
-        self.absorption_share.max_element() > 0.0
+        (self.absorption_share.max_element() > 0.0 || self.albedo_grid.is_some())
             && self.grid.max_density > 0.0
             && (self.emission.max_element() > 0.0
                 || self.temperature.is_some()
@@ -302,7 +329,7 @@ impl VdbMedium {
             None => self.emission,
         };
         if let Some(c) = &self.emission_grid {
-            le += c.le(p);
+            le += c.at(p);
         }
         le
     }
@@ -310,7 +337,7 @@ impl VdbMedium {
     /// σ_a at `p`.
     #[inline]
     pub fn sigma_a(&self, p: Vec3) -> Rgb {
-        self.absorption_share * (self.sigma_t * self.density(p))
+        self.absorption_share_at(p) * (self.sigma_t * self.density(p))
     }
 
     /// The grid's density (scaled), its map from scene to index space, and the majorant cells
@@ -319,9 +346,12 @@ impl VdbMedium {
         (&self.grid, self.to_index, self.cells, self.lo, &self.majorant)
     }
 
-    /// σ_a per unit of (scaled) density.
+    /// σ_a per unit of (scaled) density, or a bound on it (σ_t) where an albedo grid varies it.
     pub(crate) fn sigma_a_per_density(&self) -> Rgb {
-        self.absorption_share * self.sigma_t
+        match self.albedo_grid {
+            Some(_) => self.tint.unwrap_or(Rgb::ONE) * self.sigma_t,
+            None => self.absorption_share * self.sigma_t,
+        }
     }
 
     /// The temperature field, if any.
@@ -346,7 +376,7 @@ impl VdbMedium {
         self.tentative(o, d, t_max, EMISSION_RATE, s, |t, sigma_t, mu, s| {
             if sigma_t > 0.0 {
                 let p = o + d * t;
-                sum += self.absorption_share * (tr * (sigma_t / mu)) * self.le(p);
+                sum += self.absorption_share_at(p) * (tr * (sigma_t / mu)) * self.le(p);
                 tr = (tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO);
                 // Russian roulette once the transmittance is small (unbiased: survivors are
                 // divided by their chance), so that a walk through thick emitting smoke ends
@@ -379,7 +409,10 @@ impl VdbMedium {
     /// σ_s at `p`.
     #[inline]
     pub fn sigma_s(&self, p: Vec3) -> Rgb {
-        self.sigma_s * self.density(p)
+        match &self.albedo_grid {
+            Some(a) => a.at(p) * (self.tint.unwrap_or(Rgb::ONE) * (self.sigma_t * self.density(p))),
+            None => self.sigma_s * self.density(p),
+        }
     }
 
     /// Feeds what defines the medium (grid, placement, coefficients; not its counters) to
@@ -396,6 +429,10 @@ impl VdbMedium {
         feed(t.as_bytes());
         if let Some(tint) = self.tint {
             feed(format!("tint {tint:?}").as_bytes());
+        }
+        if let Some(c) = &self.albedo_grid {
+            feed(format!("albedo grids {:?} {:?} {}", c.names, c.to_index, c.scale).as_bytes());
+            c.grids.iter().for_each(|g| g.feed_values(feed));
         }
         // Emission, only where given (fingerprints of media without it stay as they were).
         if self.emits() {
@@ -735,6 +772,42 @@ mod tests {
         )))
     }
 
+    /// An albedo grid sets σ_s(p) = albedo(p) σ_t(p) and σ_a(p) = σ_t(p) − σ_s(p) per channel
+    /// (coloured extinction included), replacing the constant split, and the medium emits σ_a(p)
+    /// L_e: media/albedo.vdb's channels are linear along x, y and z.
+    #[test]
+    fn albedo_grids_set_the_scattering_share_point_by_point() {
+        let file = media("albedo.vdb");
+        let load = |n: &str| DensityGrid::load(&file, n).unwrap();
+        let names = ["albedo.r", "albedo.g", "albedo.b"].map(String::from);
+        let field =
+            ColourField::new(names.clone().map(|n| load(&n)), names, Affine3A::IDENTITY, 1.0);
+        let (sigma_a, sigma_s) = (Vec3::new(0.5, 0.2, 1.0), Vec3::new(0.5, 0.3, 1.0));
+        let sigma_t = sigma_a + sigma_s;
+        let m = VdbMedium::new(
+            load("density"),
+            Affine3A::IDENTITY,
+            1.0,
+            sigma_a,
+            sigma_s,
+            HenyeyGreenstein { g: 0.0 },
+        )
+        .with_albedo_grid(Some(field))
+        .with_emission(Rgb::splat(2.0), None);
+        assert!(m.emits());
+        // Voxel centres at i/16: albedo R = 0.1 + 0.8·16x/15, G = 0.9 − 0.8·16y/15, B = 0.1 +
+        // 0.8·16z/15 inside the box of centres, where the density is 1.
+        for p in [Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.8, 0.05, 0.5), Vec3::new(0.33, 0.9, 0.71)] {
+            let k = 0.8 * 16.0 / 15.0;
+            let albedo = Rgb::new(0.1 + k * p.x, 0.9 - k * p.y, 0.1 + k * p.z);
+            let close = |a: Rgb, b: Rgb| (a - b).abs().max_element() < 1e-5;
+            assert!(close(m.sigma_s(p), albedo * sigma_t), "σ_s at {p}: {}", m.sigma_s(p));
+            assert!(close(m.sigma_a(p), (Rgb::ONE - albedo) * sigma_t), "σ_a at {p}");
+        }
+        // Outside the grid: nothing.
+        assert_eq!(m.sigma_s(Vec3::splat(3.0)), Rgb::ZERO);
+    }
+
     /// `m` with cells bisected whenever more than `split` tentative collisions are expected in
     /// them (1 bisects nearly every cell with a density edge in it).
     fn with_split(mut m: Medium, split: f32) -> Medium {
@@ -941,7 +1014,7 @@ mod tests {
         let density = |x: f64| x + 1.0 / 64.0;
         let p = Vec3::new(0.4, 0.25, 0.25);
         let want = 3.0 * density(0.4) as f32;
-        assert!((field.le(p) - Rgb::splat(want)).abs().max_element() < 1e-5, "{}", field.le(p));
+        assert!((field.at(p) - Rgb::splat(want)).abs().max_element() < 1e-5, "{}", field.at(p));
         let (sigma_a, sigma_s) = (Vec3::new(0.2, 0.5, 0.8), Vec3::new(0.8, 0.5, 0.2));
         let m = match grid_medium("gradient.vdb", 2.0, sigma_a, sigma_s) {
             Medium::Vdb(v) => Medium::Vdb(Box::new(v.with_emission_grid(Some(field)))),

@@ -200,7 +200,9 @@ impl SceneBuilder {
         let emits = emission.max_element() > 0.0
             || matches!(&desc, MediumDesc::Vdb { temperature: Some(_), .. })
             || matches!(&desc, MediumDesc::Vdb { emission_grid: Some(_), .. });
-        if emits && sigma_a.max_element() <= 0.0 {
+        // An albedo grid sets the absorption itself.
+        let albedo_grid = matches!(&desc, MediumDesc::Vdb { albedo_grid: Some(_), .. });
+        if emits && sigma_a.max_element() <= 0.0 && !albedo_grid {
             return Err(invalid(
                 key("emission"),
                 "a medium emits σ_a · L_e per unit length, and this one has σ_a = 0: give it \
@@ -222,6 +224,7 @@ impl SceneBuilder {
                 transform,
                 temperature,
                 emission_grid,
+                albedo_grid,
                 layout,
                 ..
             } => {
@@ -257,32 +260,83 @@ impl SceneBuilder {
                     self.grids.push(GridInfo::of(name, &t.name, &t.grid));
                 }
                 let colour = match emission_grid.map(|b| *b) {
+                    Some((names, scale)) => Some(self.colour_field(
+                        name,
+                        "emission_grid",
+                        &file,
+                        names,
+                        scale,
+                        layout,
+                        to_scene,
+                    )?),
+                    None => None,
+                };
+                let albedo = match albedo_grid.map(|b| *b) {
                     Some((names, scale)) => {
-                        let ekey = |k: &str| format!("media.{name}.emission_grid.{k}");
-                        if !(scale.is_finite() && scale >= 0.0) {
-                            let message = format!("must be finite and non-negative, got {scale}");
-                            return Err(invalid(ekey("scale"), message));
+                        let field = self.colour_field(
+                            name,
+                            "albedo_grid",
+                            &file,
+                            names,
+                            scale,
+                            layout,
+                            to_scene,
+                        )?;
+                        // In 1 + 1e-6: grids written as 1.0 through a scale of exactly 1 pass.
+                        let max = field.max_value();
+                        if max > 1.0 + 1e-6 {
+                            return Err(invalid(
+                                format!("media.{name}.albedo_grid.scale"),
+                                format!(
+                                    "albedo must lie in [0, 1], but the grids reach {max:.3} (their \
+                                     largest value × scale {})",
+                                    field.scale
+                                ),
+                            ));
                         }
-                        let mut grids = Vec::new();
-                        for n in &names {
-                            let g = DensityGrid::load_with(&file, n, layout).map_err(|e| {
-                                invalid(ekey("grids"), self.relative_note(&file, e.to_string()))
-                            })?;
-                            self.grids.push(GridInfo::of(name, n, &g));
-                            grids.push(g);
-                        }
-                        let grids: [DensityGrid; 3] = grids.try_into().expect("three grids");
-                        Some(ColourField::new(grids, names, to_scene, scale))
+                        Some(field)
                     }
                     None => None,
                 };
                 let medium = VdbMedium::new(grid, to_scene, density_scale, sigma_a, sigma_s, phase);
-                let medium = medium.with_emission(emission, temperature).with_emission_grid(colour);
+                let medium = medium
+                    .with_emission(emission, temperature)
+                    .with_emission_grid(colour)
+                    .with_albedo_grid(albedo);
                 Medium::Vdb(Box::new(medium))
             }
         };
         self.media.push((name.to_string(), medium));
         Ok(MediumId(self.media.len() as u32 - 1))
+    }
+
+    /// Three float grids of file `file` as a colour field of grid medium `name`, for its key
+    /// `what` (`emission_grid`, `albedo_grid`), checked.
+    #[allow(clippy::too_many_arguments)]
+    fn colour_field(
+        &mut self,
+        name: &str,
+        what: &str,
+        file: &Path,
+        names: [String; 3],
+        scale: f32,
+        layout: GridLayout,
+        to_scene: glam::Affine3A,
+    ) -> Result<ColourField> {
+        let ekey = |k: &str| format!("media.{name}.{what}.{k}");
+        if !(scale.is_finite() && scale >= 0.0) {
+            let message = format!("must be finite and non-negative, got {scale}");
+            return Err(invalid(ekey("scale"), message));
+        }
+        let mut grids = Vec::new();
+        for n in &names {
+            let g = DensityGrid::load_with(file, n, layout)
+                .map_err(|e| invalid(ekey("grids"), self.relative_note(file, e.to_string())))?;
+            self.grids.push(GridInfo::of(name, n, &g));
+            grids.push(g);
+        }
+        let grids: [DensityGrid; 3] = grids.try_into().expect("three grids");
+        Ok(ColourField::new(grids, names, to_scene, scale))
     }
 
     /// The temperature field of grid medium `name` (file `file`), checked.

@@ -172,6 +172,9 @@ pub enum MediumDesc {
         /// Emitted radiance from three float grids (R, G, B) of the same file, times a scale,
         /// added to the rest.
         emission_grid: Option<Box<([String; 3], f32)>>,
+        /// Single-scattering albedo from three float grids (R, G, B) of the same file, times a
+        /// scale (values in [0, 1]), in place of the constant σ_s / σ_t; the extinction stays.
+        albedo_grid: Option<Box<([String; 3], f32)>>,
         /// How the grids are stored (dense or in bricks; by default chosen per grid).
         layout: GridLayout,
         /// Places the grid's world space in the scene.
@@ -234,6 +237,7 @@ impl MediumDesc {
             emission: Rgb::ZERO,
             temperature: None,
             emission_grid: None,
+            albedo_grid: None,
             layout: GridLayout::Auto,
             transform: Transform::default(),
         }
@@ -264,6 +268,17 @@ impl MediumDesc {
     pub fn emission_grid(mut self, grids: [&str; 3], scale: f32) -> Self {
         if let MediumDesc::Vdb { emission_grid, .. } = &mut self {
             *emission_grid = Some(Box::new((grids.map(str::to_string), scale)));
+        }
+        self
+    }
+
+    /// Grid media: single-scattering albedo `scale` × (R, G, B) read from three float grids of
+    /// the file (each value times `scale` at most 1), in place of the constant albedo: σ_s(p) =
+    /// albedo(p) σ_t(p). The extinction σ_t stays as [`Self::coefficients`] or
+    /// [`Self::albedo_extinction`] set it.
+    pub fn albedo_grid(mut self, grids: [&str; 3], scale: f32) -> Self {
+        if let MediumDesc::Vdb { albedo_grid, .. } = &mut self {
+            *albedo_grid = Some(Box::new((grids.map(str::to_string), scale)));
         }
         self
     }

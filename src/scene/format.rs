@@ -144,6 +144,7 @@ pub struct VdbDef {
     pub emission: Option<ColorDef>,
     pub temperature: Option<TemperatureDef>,
     pub emission_grid: Option<Box<EmissionGridDef>>,
+    pub albedo_grid: Option<Box<EmissionGridDef>>,
     pub layout: Option<LayoutDef>,
     #[serde(default)]
     pub transform: TransformDef,
