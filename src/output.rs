@@ -41,6 +41,36 @@ pub struct RenderInfo {
     pub truncated_trackings: u64,
 }
 
+/// A rectangle of pixels, [x0, x1) × [y0, y1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    /// Left column.
+    pub x0: u32,
+    /// Top row.
+    pub y0: u32,
+    /// One past the right column.
+    pub x1: u32,
+    /// One past the bottom row.
+    pub y1: u32,
+}
+
+impl std::str::FromStr for Region {
+    type Err = String;
+    /// Parses `X0,Y0,X1,Y1`.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let v: Vec<u32> = s
+            .split(',')
+            .map(|t| t.trim().parse::<u32>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| format!("`{s}` is not a region X0,Y0,X1,Y1 in whole pixels"))?;
+        match v[..] {
+            [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok(Region { x0, y0, x1, y1 }),
+            [_, _, _, _] => Err(format!("region `{s}` is empty: need X0 < X1 and Y0 < Y1")),
+            _ => Err(format!("`{s}` is not a region X0,Y0,X1,Y1")),
+        }
+    }
+}
+
 /// A rendered image: linear RGB radiance, row-major, top row first.
 #[derive(Clone, Debug)]
 pub struct Image {
@@ -51,7 +81,8 @@ pub struct Image {
     /// Pixels.
     pub pixels: Vec<[f32; 3]>,
     /// Each pixel's estimated variance of the mean over the iterations (see
-    /// [`Film::variance_of_mean`]); written only into reference files.
+    /// [`Film::variance_of_mean`]), written as the EXR layer `variance`; `None` where there is
+    /// no estimate (fewer than two iterations, or the original PPM's running statistics).
     pub variance: Option<Vec<[f32; 3]>>,
     /// How it was made.
     pub info: RenderInfo,
@@ -80,9 +111,33 @@ impl Image {
             width: film.width(),
             height: film.height(),
             pixels: film.mean(),
-            variance: Some(film.variance_of_mean()),
+            variance: (film.iterations() >= 2
+                && info.settings.progression == crate::settings::Progression::Probabilistic)
+                .then(|| film.variance_of_mean()),
             info,
         }
+    }
+
+    /// The estimated noise of the image relative to its mean, over `region` (or the whole
+    /// image): √(mean v) / m, with v each pixel's and channel's estimated variance of the mean
+    /// and m the mean value — the relative RMSE the noise alone would give, as `haze converge`
+    /// measures errors. `None` without a variance estimate or on a black image.
+    pub fn relative_noise(&self, region: Option<Region>) -> Option<f64> {
+        let variance = self.variance.as_ref()?;
+        let (w, h) = (self.width, self.height);
+        let r = region.unwrap_or(Region { x0: 0, y0: 0, x1: w, y1: h });
+        let (mut sum, mut var, mut n) = (0.0f64, 0.0f64, 0.0f64);
+        for y in r.y0..r.y1.min(h) {
+            for x in r.x0..r.x1.min(w) {
+                let i = (y * w + x) as usize;
+                for c in 0..3 {
+                    sum += self.pixels[i][c] as f64;
+                    var += variance[i][c] as f64;
+                }
+                n += 3.0;
+            }
+        }
+        (n > 0.0 && sum > 0.0).then(|| (var / n).sqrt() / (sum / n))
     }
 
     /// Mean of every pixel and channel.
@@ -119,10 +174,9 @@ impl Image {
     }
 
     /// Writes the image as a reference for `haze converge`: the OpenEXR file of
-    /// [`Self::write_exr`] with the attribute `haze:reference` (saying how it was made) and, for
-    /// path-traced references, a second layer, `variance`, holding each pixel's estimated
-    /// variance of the mean, which `haze converge` subtracts from its squared errors. Also writes
-    /// the PNG preview.
+    /// [`Self::write_exr`] (with its `variance` layer, which `haze converge` subtracts from its
+    /// squared errors for path-traced references) and the attribute `haze:reference` saying how
+    /// it was made. Also writes the PNG preview.
     pub fn write_reference(&self, exr_path: &Path, exposure: f32) -> Result<Vec<PathBuf>> {
         if extension(exr_path).as_deref() != Some("exr") {
             return Err(out_err(exr_path, "a reference is an OpenEXR file: name it .exr"));
@@ -193,43 +247,39 @@ impl Image {
             put("scene", AttributeValue::Text(t));
         }
         let size = (self.width as usize, self.height as usize);
-        if !reference {
-            let layer = Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels);
-            let image = Image::from_layer(layer);
-            return write_atomically(path, |w| {
-                image.write().to_buffered(w).map_err(|e| e.to_string())
-            });
+        if reference {
+            let description = self.reference_description();
+            attrs.other.insert(
+                Text::from("haze:reference"),
+                AttributeValue::Text(Text::new_or_none(description.as_str()).unwrap_or_default()),
+            );
         }
-        let description = self.reference_description();
-        attrs.other.insert(
-            Text::from("haze:reference"),
-            AttributeValue::Text(Text::new_or_none(description.as_str()).unwrap_or_default()),
-        );
         let layer = Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels);
         let bounds = exr::math::Vec2(size.0, size.1);
         let image = Image::empty(ImageAttributes::new(IntegerBounds::from_dimensions(bounds)))
             .with_layer(layer);
-        // Only the path tracer's iterations are identically distributed, so only its per-pixel
-        // sample variance estimates the noise of the mean; photon-mapping iterations drift as
-        // the radius shrinks, and subtracting their spread would understate errors.
-        let variance = match (&self.variance, self.info.settings.integrator) {
-            (Some(v), Integrator::Path) => v,
-            _ => {
-                return write_atomically(path, |w| {
-                    image.write().to_buffered(w).map_err(|e| e.to_string())
-                });
-            }
+        let Some(variance) = &self.variance else {
+            return write_atomically(path, |w| {
+                image.write().to_buffered(w).map_err(|e| e.to_string())
+            });
         };
+        // Every render carries its noise estimate. Only the path tracer's iterations are
+        // identically distributed; photon-mapping iterations drift as the radius shrinks, so
+        // their spread also counts that drift (a slight overstatement of the noise), and
+        // `haze converge` uses the layer of path-traced references only.
         let var_channels = SpecificChannels::rgb(|p: Vec2<usize>| {
             let [r, g, b] = variance[p.y() * w + p.x()];
             (r, g, b)
         });
-        let var_layer = Layer::new(
-            size,
-            LayerAttributes::named("variance"),
-            Encoding::SMALL_LOSSLESS,
-            var_channels,
+        let mut var_attrs = LayerAttributes::named("variance");
+        var_attrs.other.insert(
+            Text::from("haze:variance"),
+            AttributeValue::Text(Text::from(match self.info.settings.integrator {
+                Integrator::Path => "estimated variance of the mean per pixel: the sample variance of the iterations / their count",
+                _ => "estimated variance of the mean per pixel: the sample variance of the iterations / their count (photon mapping: includes the drift of the iterations' means as the radius shrinks)",
+            })),
         );
+        let var_layer = Layer::new(size, var_attrs, Encoding::SMALL_LOSSLESS, var_channels);
         let image = image.with_layer(var_layer);
         write_atomically(path, |w| image.write().to_buffered(w).map_err(|e| e.to_string()))
     }

@@ -44,8 +44,12 @@ pub struct Reference {
     pub height: u32,
     /// Linear RGB, row-major.
     pub pixels: Vec<[f32; 3]>,
-    /// Estimated variance of the mean per pixel, if the reference carries it.
+    /// Estimated variance of the mean per pixel, if the reference carries one that is sound
+    /// (path-traced references only: photon-mapping iterations drift as the radius shrinks).
     pub variance: Option<Vec<[f32; 3]>>,
+    /// The file's `variance` layer whatever rendered it (every haze render of two or more
+    /// iterations writes one), for per-tile comparisons ([`crate::lab::tiles`]).
+    pub variance_layer: Option<Vec<[f32; 3]>>,
     /// How it was made (the `haze:reference` attribute), if it says.
     pub description: Option<String>,
     /// The integrator and seed that rendered it (`haze:render.integrator` and `haze:render.seed`,
@@ -65,6 +69,7 @@ impl Reference {
                 .variance
                 .clone()
                 .filter(|_| image.info.settings.integrator == Integrator::Path),
+            variance_layer: image.variance.clone(),
             description: Some(image.reference_description()),
             made_by: Some((image.info.settings.integrator, image.info.settings.seed)),
         }
@@ -146,40 +151,21 @@ impl Reference {
         };
         // Photon-mapping iterations are not identically distributed, so their spread overstates
         // the noise of the mean; a variance layer in such a file (older haze wrote one) is ignored.
+        let variance_layer = variance.clone();
         let variance = variance.filter(|_| made_by.is_none_or(|(i, _)| i == Integrator::Path));
-        Ok(Self { width: w as u32, height: h as u32, pixels, variance, description, made_by })
+        Ok(Self {
+            width: w as u32,
+            height: h as u32,
+            pixels,
+            variance,
+            variance_layer,
+            description,
+            made_by,
+        })
     }
 }
 
-/// A rectangle of pixels, [x0, x1) × [y0, y1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Region {
-    /// Left column.
-    pub x0: u32,
-    /// Top row.
-    pub y0: u32,
-    /// One past the right column.
-    pub x1: u32,
-    /// One past the bottom row.
-    pub y1: u32,
-}
-
-impl std::str::FromStr for Region {
-    type Err = String;
-    /// Parses `X0,Y0,X1,Y1`.
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let v: Vec<u32> = s
-            .split(',')
-            .map(|t| t.trim().parse::<u32>())
-            .collect::<std::result::Result<_, _>>()
-            .map_err(|_| format!("`{s}` is not a region X0,Y0,X1,Y1 in whole pixels"))?;
-        match v[..] {
-            [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok(Region { x0, y0, x1, y1 }),
-            [_, _, _, _] => Err(format!("region `{s}` is empty: need X0 < X1 and Y0 < Y1")),
-            _ => Err(format!("`{s}` is not a region X0,Y0,X1,Y1")),
-        }
-    }
-}
+pub use crate::output::Region;
 
 /// Errors of an image against a reference (see the module documentation).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -732,6 +718,7 @@ mod tests {
             height: 1,
             pixels: vec![[1.0; 3]],
             variance: Some(vec![[0.01; 3]]),
+            variance_layer: None,
             description: None,
             made_by: None,
         };

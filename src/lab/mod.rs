@@ -6,4 +6,5 @@
 pub mod analytic;
 pub mod chart;
 pub mod converge;
+pub mod tiles;
 pub mod validate;

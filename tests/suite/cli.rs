@@ -31,6 +31,58 @@ fn render_writes_exr_and_png() {
     assert!(err.contains("2 iterations"), "{err}");
 }
 
+/// Every render writes its noise (the EXR layer `variance`) and states it ("relative noise");
+/// `haze diff --tiles` compares two renders tile by tile with it: two seeds agree (exit 0), two
+/// scenes do not (exit 1), and an image without the layer is refused by name.
+#[test]
+fn renders_carry_their_noise_and_diff_compares_tiles() {
+    let dir = temp_dir("cli-tiles");
+    let render = |scene: &str, seed: &str, n: &str, out: &str| {
+        let out = dir.join(out);
+        let scene = scene_path(scene);
+        let (ok, err) = haze(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--integrator",
+            "path",
+            "--resolution",
+            "16x16",
+            "-n",
+            n,
+            "--seed",
+            seed,
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+        assert!(ok, "{err}");
+        (out.to_str().unwrap().to_string(), err)
+    };
+    let (a, err) = render("cornell-box.toml", "1", "256", "a.exr");
+    assert!(err.contains("relative noise"), "{err}");
+    let (b, _) = render("cornell-box.toml", "2", "256", "b.exr");
+    let (c, _) = render("cornell-fog.toml", "1", "256", "c.exr");
+    let (one, err) = render("cornell-box.toml", "1", "1", "one.exr");
+    assert!(!err.contains("relative noise"), "one iteration has no noise estimate: {err}");
+    let diff = |x: &str, y: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_haze"))
+            .args(["diff", x, y, "--tiles", "8"])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned()
+            + &String::from_utf8_lossy(&out.stderr);
+        (out.status.code(), text)
+    };
+    let (code, text) = diff(&a, &b);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(text.contains("0 of 4 tiles of 8×8 differ"), "{text}");
+    let (code, text) = diff(&a, &c);
+    assert_eq!(code, Some(1), "{text}");
+    let (code, text) = diff(&a, &one);
+    assert_eq!(code, Some(1), "{text}");
+    assert!(text.contains("one.exr: no variance layer"), "{text}");
+}
+
 #[test]
 fn bad_input_fails_with_a_one_line_reason() {
     let scene = scene_path("cornell-box.toml");

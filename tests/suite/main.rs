@@ -15,5 +15,6 @@ mod reliability;
 mod sampling;
 mod scenes;
 mod stability;
+mod tiles;
 mod validation;
 mod vdb;

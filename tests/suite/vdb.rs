@@ -4,21 +4,15 @@
 use crate::common::{mean_and_se, t_critical};
 use std::path::Path;
 
-/// A constant-density grid renders like the equivalent homogeneous medium: box.vdb holds density
-/// 1 on [0, 15/16]³ (voxel centres), and the medium sits in a pass-through box inside that
-/// region, so both scenes have exactly the same coefficients everywhere. The photon-mapping bias
-/// is then the same for both, and the image means must agree within noise (Welch-style t-test
-/// with the smaller sample's degrees of freedom), for both volume estimators.
-#[test]
-fn constant_density_grid_renders_like_the_homogeneous_medium() {
+/// Twin scenes (16 × 16 pixels): a medium of coefficients σ_a, σ_s in a pass-through box inside
+/// the region where box.vdb's density is exactly 1, as a homogeneous medium and as the grid, over
+/// a floor, lit by a point light and by an emitter seen through the medium.
+pub(crate) fn twins(
+    sigma_a: haze::glam::Vec3,
+    sigma_s: haze::glam::Vec3,
+) -> (haze::Scene, haze::Scene) {
     use haze::glam::Vec3;
-    use haze::progress::Silent;
     use haze::scene::{CameraDesc, LightDesc, Material, MediumDesc, SceneBuilder, ShapeDesc};
-    use haze::settings::{RenderSettings, VolumeEstimate};
-    use std::sync::atomic::AtomicBool;
-
-    // Optically thin (τ ≈ 0.75 across the box), so the image depends strongly on the density.
-    let (sigma_a, sigma_s) = (Vec3::splat(0.4), Vec3::splat(0.6));
     let build = |medium: MediumDesc| {
         let fov = 2.0 * 0.15f32.atan().to_degrees();
         let camera = CameraDesc::perspective([0.475, 0.475, 2.0], Vec3::splat(0.475), fov)
@@ -38,9 +32,28 @@ fn constant_density_grid_renders_like_the_homogeneous_medium() {
         b.light(LightDesc::point([0.475, 1.3, 0.475], 5.0)).unwrap();
         b.build().unwrap()
     };
-    let homogeneous = build(MediumDesc::homogeneous(sigma_a, sigma_s));
     let box_vdb = Path::new(env!("CARGO_MANIFEST_DIR")).join("media/box.vdb");
-    let grid = build(MediumDesc::vdb(box_vdb).coefficients(sigma_a, sigma_s));
+    (
+        build(MediumDesc::homogeneous(sigma_a, sigma_s)),
+        build(MediumDesc::vdb(box_vdb).coefficients(sigma_a, sigma_s)),
+    )
+}
+
+/// A constant-density grid renders like the equivalent homogeneous medium: box.vdb holds density
+/// 1 on [0, 15/16]³ (voxel centres), and the medium sits in a pass-through box inside that
+/// region, so both scenes have exactly the same coefficients everywhere. The photon-mapping bias
+/// is then the same for both, and the image means must agree within noise (Welch-style t-test
+/// with the smaller sample's degrees of freedom), for both volume estimators.
+#[test]
+fn constant_density_grid_renders_like_the_homogeneous_medium() {
+    use haze::glam::Vec3;
+    use haze::progress::Silent;
+    use haze::settings::{RenderSettings, VolumeEstimate};
+    use std::sync::atomic::AtomicBool;
+
+    // Optically thin (τ ≈ 0.75 across the box), so the image depends strongly on the density.
+    let (sigma_a, sigma_s) = (Vec3::splat(0.4), Vec3::splat(0.6));
+    let (homogeneous, grid) = twins(sigma_a, sigma_s);
     for estimate in [VolumeEstimate::Beam, VolumeEstimate::Point] {
         let means = |scene: &haze::Scene| -> Vec<f64> {
             (0..8)

@@ -214,8 +214,14 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     } else {
         String::new()
     };
+    // The noise estimate of the image (its variance layer): for photon mapping the noise only,
+    // not the kernel's bias.
+    let noise = match part.image().relative_noise(None) {
+        Some(n) => format!(", relative noise {:.2} %", 100.0 * n),
+        None => String::new(),
+    };
     eprintln!(
-        "{} iterations{range}{interrupted}, {work}, {:.1} s: wrote {}",
+        "{} iterations{range}{interrupted}, {work}, {:.1} s{noise}: wrote {}",
         i.iterations,
         i.elapsed,
         files.join(" and ")
