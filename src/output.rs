@@ -130,10 +130,8 @@ impl Image {
         for y in r.y0..r.y1.min(h) {
             for x in r.x0..r.x1.min(w) {
                 let i = (y * w + x) as usize;
-                for c in 0..3 {
-                    sum += self.pixels[i][c] as f64;
-                    var += variance[i][c] as f64;
-                }
+                sum += self.pixels[i].iter().map(|&c| c as f64).sum::<f64>();
+                var += variance[i].iter().map(|&c| c as f64).sum::<f64>();
                 n += 3.0;
             }
         }
