@@ -17,6 +17,17 @@ use crate::math::Rgb;
 /// Fixed-point scale: sums hold value · 2⁶⁰.
 const SCALE: f64 = (1u64 << 60) as f64;
 
+/// An image's estimated relative error from its noise ([`Film::error_estimate`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorEstimate {
+    /// Estimated relative RMSE: √(mean variance of the mean) / mean value.
+    pub relative_rmse: f64,
+    /// Its upper confidence limit at `confidence`.
+    pub upper: f64,
+    /// The confidence of `upper`.
+    pub confidence: f64,
+}
+
 /// The accumulated render.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
@@ -148,6 +159,41 @@ impl Film {
                 out
             })
             .collect()
+    }
+
+    /// The image's estimated relative error from its noise (docs/error.md): with v each pixel's
+    /// and channel's variance of the mean ([`Self::variance_of_mean`]), V its mean and m the
+    /// image's mean value, the relative RMSE √V / m, and its upper confidence limit at
+    /// `confidence`: √(V + z·s) / m with z the one-sided normal quantile and s the standard error
+    /// of V, from the sampling variance of each v (2v²/(N − 1) for N iterations, as for Gaussian
+    /// values; pixels independent). `None` before the second iteration or on a black image.
+    pub fn error_estimate(&self, confidence: f64) -> Option<ErrorEstimate> {
+        if self.iterations < 2 {
+            return None;
+        }
+        let n = self.iterations as f64;
+        let (mut sum, mut v, mut v2, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for (s, q) in self.sum.iter().zip(&self.sum_sq) {
+            for c in 0..3 {
+                let (s, q) = (s[c] as f64 / SCALE, q[c] as f64 / SCALE);
+                let var = ((q - s * s / n) / (n - 1.0)).max(0.0) / n;
+                sum += s / n;
+                v += var;
+                v2 += var * var;
+                count += 1.0;
+            }
+        }
+        let (mean, v_mean) = (sum / count, v / count);
+        if mean.is_nan() || mean <= 0.0 {
+            return None;
+        }
+        let se = (2.0 * v2 / (n - 1.0)).sqrt() / count;
+        let z = crate::math::normal_quantile(confidence.clamp(1e-9, 1.0 - 1e-9));
+        Some(ErrorEstimate {
+            relative_rmse: v_mean.sqrt() / mean,
+            upper: (v_mean + z * se).max(0.0).sqrt() / mean,
+            confidence,
+        })
     }
 
     /// Counts one more iteration whose running estimate is `image` itself rather than a term of

@@ -128,8 +128,8 @@ pub use output::{Image, RenderInfo};
 pub use partial::Partial;
 pub use photon::guide::MIN_GAIN as PILOT_MIN_GAIN;
 pub use render::{
-    MIN_RADIUS_FRACTION, PILOT_PATHS, PhotonUsage, Start, memory_estimate, photon_usage, render,
-    render_partial,
+    MIN_RADIUS_FRACTION, MIN_TARGET_ITERATIONS, PILOT_PATHS, PhotonUsage, Start, memory_estimate,
+    photon_usage, render, render_partial,
 };
 pub use scene::{Scene, SceneBuilder};
 pub use settings::{RenderOptions, RenderSettings};

@@ -7,6 +7,54 @@ use std::f32::consts::PI;
 /// RGB radiometric quantity (radiance, power, throughput …), linear, per channel.
 pub type Rgb = Vec3;
 
+/// The standard normal quantile Φ⁻¹(p), p in (0, 1): Acklam's rational approximation
+/// (relative error below 1.2·10⁻⁹), for confidence limits in the core library (the lab's
+/// statistics crate is optional).
+#[allow(clippy::excessive_precision)]
+pub fn normal_quantile(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969683028665376e1,
+        2.209460984245205e2,
+        -2.759285104469687e2,
+        1.383577518672690e2,
+        -3.066479806614716e1,
+        2.506628277459239,
+    ];
+    const B: [f64; 5] = [
+        -5.447609879822406e1,
+        1.615858368580409e2,
+        -1.556989798598866e2,
+        6.680131188771972e1,
+        -1.328068155288572e1,
+    ];
+    const C: [f64; 6] = [
+        -7.784894002430293e-3,
+        -3.223964580411365e-1,
+        -2.400758277161838,
+        -2.549732539343734,
+        4.374664141464968,
+        2.938163982698783,
+    ];
+    const D: [f64; 4] =
+        [7.784695709041462e-3, 3.224671290700398e-1, 2.445134137142996, 3.754408661907416];
+    let poly = |k: &[f64], x: f64| k.iter().fold(0.0, |acc, &c| acc * x + c);
+    let tail = |q: f64| poly(&C, q) / (poly(&D, q) * q + 1.0);
+    const LOW: f64 = 0.02425;
+    if p <= 0.0 {
+        f64::NEG_INFINITY
+    } else if p >= 1.0 {
+        f64::INFINITY
+    } else if p < LOW {
+        tail((-2.0 * p.ln()).sqrt())
+    } else if p > 1.0 - LOW {
+        -tail((-2.0 * (1.0 - p).ln()).sqrt())
+    } else {
+        let q = p - 0.5;
+        let r = q * q;
+        poly(&A, r) * q / (poly(&B, r) * r + 1.0)
+    }
+}
+
 /// Mean of the three channels, used for Russian roulette and for choosing lights by power.
 #[inline]
 pub fn luminance(c: Rgb) -> f32 {
@@ -210,5 +258,15 @@ mod tests {
         assert_eq!(fresnel_dielectric(0.1, 1.5), 1.0);
         // Normal incidence: ((n1 - n2) / (n1 + n2))^2.
         assert!((fresnel_dielectric(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
+    }
+
+    #[test]
+    fn normal_quantiles_match_statrs() {
+        use statrs::distribution::{ContinuousCDF, Normal};
+        let n = Normal::new(0.0, 1.0).unwrap();
+        for p in [1e-9, 1e-4, 0.0241, 0.025, 0.1, 0.5, 0.8, 0.95, 0.975, 0.999, 1.0 - 1e-7] {
+            let (got, want) = (super::normal_quantile(p), n.inverse_cdf(p));
+            assert!((got - want).abs() <= 1e-8 * want.abs().max(1.0), "{p}: {got} vs {want}");
+        }
     }
 }

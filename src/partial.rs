@@ -47,7 +47,9 @@ fn hex(bytes: &[u8]) -> String {
 
 /// Settings that must agree between the parts of one render: all but the stop conditions.
 fn merge_key(s: &RenderSettings) -> Vec<(String, String)> {
-    s.entries().into_iter().filter(|(k, _)| k != "iterations" && k != "time_limit").collect()
+    // When to stop is not what is rendered.
+    let when = ["iterations", "time_limit", "target_error", "target_confidence"];
+    s.entries().into_iter().filter(|(k, _)| !when.contains(&k.as_str())).collect()
 }
 
 impl Partial {

@@ -35,6 +35,12 @@ impl Status<'_> {
         self.info.elapsed
     }
 
+    /// The image's estimated relative error so far, at the render's `target_confidence`
+    /// ([`Film::error_estimate`]; the noise only, for photon mapping).
+    pub fn error_estimate(&self) -> Option<crate::film::ErrorEstimate> {
+        self.film.error_estimate(self.info.settings.target_confidence)
+    }
+
     /// The image so far, with its metadata (for snapshots).
     pub fn snapshot(&self) -> Image {
         Image::from_film(self.film, self.info.clone())

@@ -185,6 +185,9 @@ pub fn render_partial(
                 method: &method,
                 fingerprint,
             });
+            if reached_target(settings, &film) {
+                break;
+            }
         }
     });
     let info = info(&method, iteration, &nonfinite);
@@ -292,6 +295,18 @@ fn physical_memory() -> Option<u64> {
 
 /// True once the last iteration (`settings.iterations`, an index) or the time limit is reached,
 /// or a stop was requested.
+/// Iterations before a target error may stop a render: fewer make the variance estimates it
+/// rests on too unreliable (docs/error.md).
+pub const MIN_TARGET_ITERATIONS: u64 = 8;
+
+/// True if the settings' target error is reached: the upper confidence limit of the image's
+/// estimated relative error at or below it, after at least [`MIN_TARGET_ITERATIONS`].
+fn reached_target(settings: &RenderSettings, film: &Film) -> bool {
+    let Some(target) = settings.target_error else { return false };
+    film.iterations() >= MIN_TARGET_ITERATIONS
+        && film.error_estimate(settings.target_confidence).is_some_and(|e| e.upper <= target)
+}
+
 fn done(settings: &RenderSettings, iteration: u64, start: Instant, stop: &AtomicBool) -> bool {
     settings.iterations.is_some_and(|n| iteration >= n)
         || settings.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t)

@@ -11,6 +11,7 @@ mod distributed;
 mod fuzz_corpus;
 mod media;
 mod output;
+mod references;
 mod reliability;
 mod sampling;
 mod scenes;

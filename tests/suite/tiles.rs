@@ -119,3 +119,40 @@ fn a_constant_grid_renders_like_its_homogeneous_twin_tile_by_tile() {
         assert!(h.mean() > 0.0);
     }
 }
+
+/// `target_error` stops a render at the first iteration (from the eighth) whose estimated
+/// relative error's upper 95 % limit is at or below the target: cornell-box, 16 × 16, path
+/// tracer, target 10 %. The render stops, its estimate is within the target, and one iteration
+/// fewer (the same seed: the same iterations) was still above it. A target alone is a complete
+/// stopping rule; targets outside (0, 1) are refused by name.
+#[test]
+fn a_target_error_stops_the_render_where_it_is_first_reached() {
+    let mut scene = Scene::load(scene_path("cornell-box.toml")).unwrap();
+    scene.set_resolution([16, 16]).unwrap();
+    let target = 0.1;
+    let s = RenderSettings {
+        integrator: Integrator::Path,
+        iterations: None,
+        time_limit: None,
+        target_error: Some(target),
+        seed: 3,
+        ..scene.settings.clone()
+    };
+    s.validate().unwrap();
+    let stop = AtomicBool::new(false);
+    let part = haze::render_partial(&scene, &s, haze::Start::At(1), &mut Silent, &stop).unwrap();
+    let n = part.info.iterations;
+    assert!(n >= haze::MIN_TARGET_ITERATIONS, "{n} iterations");
+    let e = part.film.error_estimate(0.95).unwrap();
+    assert!(e.upper <= target && e.relative_rmse < e.upper, "{e:?}");
+    let before = RenderSettings { iterations: Some(n - 1), target_error: None, ..s.clone() };
+    let earlier =
+        haze::render_partial(&scene, &before, haze::Start::At(1), &mut Silent, &stop).unwrap();
+    let e = earlier.film.error_estimate(0.95).unwrap();
+    assert!(n - 1 < haze::MIN_TARGET_ITERATIONS || e.upper > target, "{e:?} after {}", n - 1);
+    for bad in [0.0, 1.5, f64::NAN] {
+        let err = RenderSettings { target_error: Some(bad), ..s.clone() }.validate().unwrap_err();
+        assert_eq!(err.key, "target_error", "{bad}");
+    }
+    assert_eq!(haze::settings::parse_fraction_or_percent("2%"), Ok(0.02));
+}

@@ -220,6 +220,17 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         Some(n) => format!(", relative noise {:.2} %", 100.0 * n),
         None => String::new(),
     };
+    let noise = match (settings.target_error, part.film.error_estimate(settings.target_confidence))
+    {
+        (Some(target), Some(e)) => format!(
+            "{noise} (≤ {:.2} % at {:.0} % confidence; target {:.2} %{})",
+            100.0 * e.upper,
+            100.0 * e.confidence,
+            100.0 * target,
+            if e.upper <= target { ", reached" } else { ", not reached" }
+        ),
+        _ => noise,
+    };
     eprintln!(
         "{} iterations{range}{interrupted}, {work}, {:.1} s{noise}: wrote {}",
         i.iterations,
@@ -256,12 +267,15 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
 }
 
 fn progress_bar(settings: &RenderSettings) -> ProgressBar {
-    let (len, template) = match settings.iterations {
-        Some(n) => (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, {per_sec}, ETA {eta} {msg}"),
-        None => (
-            (settings.time_limit.unwrap_or(1.0) * 1000.0) as u64,
-            "{elapsed_precise} [{bar:30}] time budget, ETA {eta} {msg}",
-        ),
+    let (len, template) = match (settings.iterations, settings.time_limit) {
+        (Some(n), _) => {
+            (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, {per_sec}, ETA {eta} {msg}")
+        }
+        (None, Some(t)) => {
+            ((t * 1000.0) as u64, "{elapsed_precise} [{bar:30}] time budget, ETA {eta} {msg}")
+        }
+        // A target error alone: no length known in advance.
+        (None, None) => (1, "{elapsed_precise} {spinner} {msg}"),
     };
     let bar = ProgressBar::new(len);
     if let Ok(style) = ProgressStyle::with_template(template) {
@@ -272,9 +286,10 @@ fn progress_bar(settings: &RenderSettings) -> ProgressBar {
 
 fn update_bar(bar: &ProgressBar, s: &Status) {
     let i = s.info;
-    match s.target_iterations {
-        Some(_) => bar.set_position(i.first_iteration + i.iterations - 1),
-        None => bar.set_position((i.elapsed * 1000.0) as u64),
+    match (s.target_iterations, s.time_limit) {
+        (Some(_), _) => bar.set_position(i.first_iteration + i.iterations - 1),
+        (None, Some(_)) => bar.set_position((i.elapsed * 1000.0) as u64),
+        (None, None) => bar.tick(),
     }
     let rate = i.iterations as f64 / i.elapsed.max(1e-9);
     let volume = if s.volume_photons_stored > 0 {
@@ -282,5 +297,18 @@ fn update_bar(bar: &ProgressBar, s: &Status) {
     } else {
         String::new()
     };
-    bar.set_message(format!("it {} ({rate:.2} it/s), r = {:.5}{volume}", i.iterations, i.radius));
+    let error = match (i.settings.target_error, s.error_estimate()) {
+        (Some(target), Some(e)) => format!(
+            ", error ≤ {:.2} % ({:.0} % confidence; target {:.2} %)",
+            100.0 * e.upper,
+            100.0 * e.confidence,
+            100.0 * target
+        ),
+        (Some(_), None) => ", error: not yet estimated".to_string(),
+        _ => String::new(),
+    };
+    bar.set_message(format!(
+        "it {} ({rate:.2} it/s), r = {:.5}{volume}{error}",
+        i.iterations, i.radius
+    ));
 }

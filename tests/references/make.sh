@@ -1,0 +1,24 @@
+#!/bin/sh
+# Regenerates the small per-scene references of tests/suite/references.rs: every bundled scene
+# at 1/16 of its resolution, path traced long.
+#
+#   cargo build --release && tests/references/make.sh          # about 5 minutes on 2 cores
+#
+# Path tracer, 8,192 samples per pixel, seed 1000, for every scene it can render (not the two
+# caustic scenes, nor dense-fog: see tests/suite/references.rs). Keep the list here and there in
+# step.
+set -eu
+cd "$(dirname "$0")/../.."
+HAZE=${HAZE:-target/release/haze}
+size() {
+    # The scene's resolution / 16, rounded, at least 8.
+    sed -n 's/^resolution *= *\[ *\([0-9]*\) *, *\([0-9]*\) *\].*/\1 \2/p' "scenes/$1.toml" | head -1 |
+        awk '{w = int($1 / 16 + 0.5); h = int($2 / 16 + 0.5); if (w < 8) w = 8; if (h < 8) h = 8; print w "x" h}'
+}
+for s in coloured-smoke cornell-box cornell-cloud-homogeneous cornell-cloud cornell-fog cumulus \
+    fire fog-backward fog-forward spotlight-fog thin-fog vdb-cloud vdb-edges; do
+    "$HAZE" render "scenes/$s.toml" --integrator path -n 8192 --seed 1000 \
+        --resolution "$(size "$s")" -q -o "tests/references/$s.exr"
+    rm -f "tests/references/$s.png"
+done
+ls -l tests/references/*.exr
