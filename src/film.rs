@@ -166,7 +166,8 @@ impl Film {
     /// image's mean value, the relative RMSE √V / m, and its upper confidence limit at
     /// `confidence`: √(V + z·s) / m with z the one-sided normal quantile and s the standard error
     /// of V, from the sampling variance of each v (2v²/(N − 1) for N iterations, as for Gaussian
-    /// values; pixels independent). `None` before the second iteration or on a black image.
+    /// values; pixels independent, a pixel's three channels fully correlated). `None` before the
+    /// second iteration; zero for a black image without noise.
     pub fn error_estimate(&self, confidence: f64) -> Option<ErrorEstimate> {
         if self.iterations < 2 {
             return None;
@@ -174,17 +175,29 @@ impl Film {
         let n = self.iterations as f64;
         let (mut sum, mut v, mut v2, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for (s, q) in self.sum.iter().zip(&self.sum_sq) {
+            let mut pixel = 0.0;
             for c in 0..3 {
                 let (s, q) = (s[c] as f64 / SCALE, q[c] as f64 / SCALE);
                 let var = ((q - s * s / n) / (n - 1.0)).max(0.0) / n;
                 sum += s / n;
-                v += var;
-                v2 += var * var;
+                pixel += var;
                 count += 1.0;
             }
+            v += pixel;
+            // A pixel's channels come from the same paths: their variance estimates' errors are
+            // taken as fully correlated (the sampling s.d. of the three add).
+            v2 += pixel * pixel;
         }
         let (mean, v_mean) = (sum / count, v / count);
-        if mean.is_nan() || mean <= 0.0 {
+        if mean.is_nan() || mean < 0.0 {
+            return None;
+        }
+        if mean == 0.0 && v_mean == 0.0 {
+            // A black image without noise: nothing left to estimate (and a render stopping on a
+            // target must stop).
+            return Some(ErrorEstimate { relative_rmse: 0.0, upper: 0.0, confidence });
+        }
+        if mean == 0.0 {
             return None;
         }
         let se = (2.0 * v2 / (n - 1.0)).sqrt() / count;
@@ -233,6 +246,28 @@ impl Film {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    /// A black film without noise has reached any target (so a render stopping on one stops);
+    /// a noisy one reports √V / m, with the upper limit above it.
+    #[test]
+    fn error_estimates_of_black_and_noisy_films() {
+        let mut black = Film::new(2, 2);
+        for _ in 0..3 {
+            black.add(&[Rgb::ZERO; 4]);
+        }
+        let e = black.error_estimate(0.95).unwrap();
+        assert_eq!((e.relative_rmse, e.upper), (0.0, 0.0));
+        let mut noisy = Film::new(1, 1);
+        for v in [1.0, 3.0] {
+            noisy.add(&[Rgb::splat(v)]);
+        }
+        // Sample variance 2, of the mean 1; mean 2: √1 / 2.
+        let e = noisy.error_estimate(0.95).unwrap();
+        assert!((e.relative_rmse - 0.5).abs() < 1e-12 && e.upper > e.relative_rmse, "{e:?}");
+        assert!(Film::new(1, 1).error_estimate(0.95).is_none());
+    }
+
     use super::*;
 
     /// Values spread over many orders of magnitude, added in two groupings: floating-point sums

@@ -293,8 +293,6 @@ fn physical_memory() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// True once the last iteration (`settings.iterations`, an index) or the time limit is reached,
-/// or a stop was requested.
 /// Iterations before a target error may stop a render: fewer make the variance estimates it
 /// rests on too unreliable (docs/error.md).
 pub const MIN_TARGET_ITERATIONS: u64 = 8;
@@ -307,6 +305,8 @@ fn reached_target(settings: &RenderSettings, film: &Film) -> bool {
         && film.error_estimate(settings.target_confidence).is_some_and(|e| e.upper <= target)
 }
 
+/// True once the last iteration (`settings.iterations`, an index) or the time limit is reached,
+/// or a stop was requested.
 fn done(settings: &RenderSettings, iteration: u64, start: Instant, stop: &AtomicBool) -> bool {
     settings.iterations.is_some_and(|n| iteration >= n)
         || settings.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t)

@@ -6,8 +6,10 @@
 //! For a tile T of n pixel channels, with images a and b, their per-pixel variances of the mean
 //! v_a and v_b (the EXR layer `variance` every render writes) and optional bias bounds β_a, β_b:
 //!
-//! - Δ = mean over T of (a − b); s = √(Σ_T (v_a + v_b)) / n, the standard error of Δ when the
-//!   pixels' errors are independent;
+//! - Δ = mean over T of (a − b); s = √(Σ_pixels ((Σ_c σ_a,c)² + (Σ_c σ_b,c)²)) / n with σ = √v,
+//!   the standard error of Δ when the pixels' errors are independent and a pixel's three
+//!   channels (which come from the same paths) fully correlated — conservative where they are
+//!   less so; a non-finite pixel fails its tile;
 //! - the allowance B = mean over T of (β_a + β_b), and z = sign(Δ) · max(0, |Δ| − B) / s;
 //! - the tile fails if |z| > z*, with z* the two-sided critical value at the per-tile level
 //!   1 − (1 − α)^{1/m} for m tiles (Šidák): the chance that any tile of two images of the same
@@ -159,22 +161,32 @@ pub fn compare(a: &NoisyImage, b: &NoisyImage, tile: u32, significance: f64) -> 
             for y in y0..(y0 + tile).min(a.height) {
                 for x in x0..(x0 + tile).min(a.width) {
                     let i = y as usize * w + x as usize;
+                    // A pixel's channels come from the same paths: their errors are taken as
+                    // fully correlated, so the standard deviations of the three add.
+                    let (mut sd_a, mut sd_b) = (0.0, 0.0);
                     for c in 0..3 {
                         diff += a.pixels[i][c] as f64 - b.pixels[i][c] as f64;
-                        var += a.variance[i][c] as f64 + b.variance[i][c] as f64;
+                        sd_a += (a.variance[i][c] as f64).max(0.0).sqrt();
+                        sd_b += (b.variance[i][c] as f64).max(0.0).sqrt();
                         allowance += a.bias.map_or(0.0, |v| v[i][c] as f64)
                             + b.bias.map_or(0.0, |v| v[i][c] as f64);
                         count += 1.0;
                     }
+                    var += sd_a * sd_a + sd_b * sd_b;
                 }
             }
             let (difference, allowance) = (diff / count, allowance / count);
-            let se = var.max(0.0).sqrt() / count;
+            let se = var.sqrt() / count;
             let excess = (difference.abs() - allowance).max(0.0);
-            let z = match (excess > 0.0, se > 0.0) {
-                (false, _) => 0.0,
-                (true, true) => excess / se * difference.signum(),
-                (true, false) => f64::INFINITY * difference.signum(),
+            let z = if !difference.is_finite() || !se.is_finite() {
+                // A non-finite pixel (NaN, ∞) fails its tile whatever else it holds.
+                f64::INFINITY
+            } else {
+                match (excess > 0.0, se > 0.0) {
+                    (false, _) => 0.0,
+                    (true, true) => excess / se * difference.signum(),
+                    (true, false) => f64::INFINITY * difference.signum(),
+                }
             };
             tiles.push(Tile { x0, y0, difference, se, allowance, z });
         }
@@ -245,7 +257,8 @@ mod tests {
         let c = compare(&image(&a), &image(&b), 8, 1e-3).unwrap();
         assert_eq!(c.tiles.len(), 48);
         assert!(c.pass(), "{}", c.summary());
-        // The tile mean's s.e. is √2 sd / √192 ≈ 0.0051; shift one tile by 0.06.
+        // The tile mean's s.e., channels taken as fully correlated, is √(2·64·(3 sd)²) / 192 ≈
+        // 0.0088; shift one tile by 0.06 (6.8 of them).
         let mut shifted = b.clone();
         for y in 16..24 {
             for x in 40..48 {
@@ -259,6 +272,12 @@ mod tests {
         let allowance = vec![[0.06; 3]; n];
         let covered = NoisyImage { bias: Some(&allowance), ..image(&shifted) };
         assert!(compare(&image(&a), &covered, 8, 1e-3).unwrap().pass());
+        // A NaN pixel fails its tile, and only its tile.
+        let mut broken = a.clone();
+        broken[3][1] = f32::NAN;
+        let c = compare(&image(&broken), &image(&b), 8, 1e-3).unwrap();
+        let failed: Vec<(u32, u32)> = c.failures().iter().map(|t| (t.x0, t.y0)).collect();
+        assert_eq!(failed, vec![(0, 0)], "{}", c.summary());
         // Mismatched sizes are an error.
         let small = NoisyImage { width: 8, height: 8, ..image(&a) };
         assert!(compare(&image(&a), &small, 8, 1e-3).is_err());

@@ -589,10 +589,20 @@ fn for_each_item(
     let grid = match &read.source {
         Source::Vdb(grid) => grid,
         Source::Half(bytes) => {
-            return super::vdbscan::for_each_half(bytes, name, &mut |p, edge, v| {
-                f(IVec3::from(p), edge, v)
-            })
-            .map_err(|e| volume_error(path, format!("grid `{name}`: {e}")));
+            // The callers' arithmetic on what a corrupt file says (origins near the ends of
+            // i32) can still panic: contained and reported, as for vdb-rs.
+            let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                super::vdbscan::for_each_half(bytes, name, &mut |p, edge, v| {
+                    f(IVec3::from(p), edge, v)
+                })
+            }));
+            return match run {
+                Ok(r) => r.map_err(|e| volume_error(path, format!("grid `{name}`: {e}"))),
+                Err(_) => Err(volume_error(
+                    path,
+                    format!("grid `{name}`: corrupt data (voxels out of any usable range)"),
+                )),
+            };
         }
     };
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

@@ -58,10 +58,10 @@ fn renders_carry_their_noise_and_diff_compares_tiles() {
         assert!(ok, "{err}");
         (out.to_str().unwrap().to_string(), err)
     };
-    let (a, err) = render("cornell-box.toml", "1", "256", "a.exr");
+    let (a, err) = render("cornell-box.toml", "1", "1024", "a.exr");
     assert!(err.contains("relative noise"), "{err}");
-    let (b, _) = render("cornell-box.toml", "2", "256", "b.exr");
-    let (c, _) = render("cornell-fog.toml", "1", "256", "c.exr");
+    let (b, _) = render("cornell-box.toml", "2", "1024", "b.exr");
+    let (c, _) = render("cornell-fog.toml", "1", "1024", "c.exr");
     let (one, err) = render("cornell-box.toml", "1", "1", "one.exr");
     assert!(!err.contains("relative noise"), "one iteration has no noise estimate: {err}");
     let diff = |x: &str, y: &str| {
