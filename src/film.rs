@@ -268,8 +268,6 @@ mod tests {
         assert!(Film::new(1, 1).error_estimate(0.95).is_none());
     }
 
-    use super::*;
-
     /// Values spread over many orders of magnitude, added in two groupings: floating-point sums
     /// would differ in their last bits; the fixed-point sums are identical.
     #[test]
