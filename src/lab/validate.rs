@@ -266,67 +266,51 @@ fn cases(media_dir: &Path) -> Vec<Case> {
     out
 }
 
-/// The white furnace, homogeneous and with a constant grid.
-fn furnace_cases(media_dir: &Path) -> Vec<Case> {
-    let mut out = Vec::new();
+/// The furnace set-up shared by the white and emitting furnaces: the camera at the centre of the
+/// cube [-1, 1]³ looking at a wall (fov 20°, 8 × 8 pixels, inside the medium `fog`), the walls
+/// emitting L_e = 1 inwards, and the medium's TOML lines `fog`; the radiance is 1 everywhere. The
+/// kernel bias at the walls is bounded with σ the extinction (or, coloured, the channel whose
+/// σ e^{−σ(1 − r)} is largest).
+fn furnace_case(name: &str, medium: &'static str, fog: &str, sigma: f64) -> Case {
     let fov = 20.0f64;
     let cos_max = ((fov.to_radians() / 2.0).tan() * 2f64.sqrt()).atan().cos();
-    // White furnace: camera at the centre of the cube, looking at a wall.
     let camera = format!(
         "[camera]\ntype = \"perspective\"\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = {fov}\nresolution = [8, 8]\nmedium = \"fog\"\n\n"
     );
-    let sigma = 2.0;
-    let furnace_bias = move |r: f64| sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp();
-    out.push(Case {
-        name: "white furnace (σ_t 2, g 0.5)".into(),
-        medium: "homogeneous",
-        toml: format!(
-            "{camera}[media.fog]\ntype = \"homogeneous\"\nsigma_a = 0\nsigma_s = {sigma}\ng = 0.5\n\n{}",
-            furnace_walls(1.0)
-        ),
+    Case {
+        name: name.into(),
+        medium,
+        toml: format!("{camera}[media.fog]\n{fog}\n\n{}", furnace_walls(1.0)),
         reference: 1.0,
-        bias: Box::new(move |_, r| furnace_bias(r)),
+        bias: Box::new(move |_, r| sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp()),
         setup_bias: 0.0,
         max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
-    });
-    // The same with a constant grid ([`box_grid`]).
-    out.push(Case {
-        name: "white furnace (σ_t 2, g 0.5)".into(),
-        medium: "vdb",
-        toml: format!(
-            "{camera}[media.fog]\n{}\nsigma_a = 0\nsigma_s = {sigma}\ng = 0.5\n\n{}",
-            box_grid(media_dir),
-            furnace_walls(1.0)
+    }
+}
+
+/// The white furnace, homogeneous and with a constant grid ([`box_grid`]), and with coloured
+/// extinction in the grid (σ_t 1, 2 and 3 in the three channels, albedo 1): spectral tracking
+/// must keep every channel at L_e; its bias bound takes the channel σ = 1.
+fn furnace_cases(media_dir: &Path) -> Vec<Case> {
+    let grid = box_grid(media_dir);
+    let white = "sigma_a = 0\nsigma_s = 2\ng = 0.5";
+    vec![
+        furnace_case(
+            "white furnace (σ_t 2, g 0.5)",
+            "homogeneous",
+            &format!("type = \"homogeneous\"\n{white}"),
+            2.0,
         ),
-        reference: 1.0,
-        bias: Box::new(move |_, r| furnace_bias(r)),
-        setup_bias: 0.0,
-        max_bounces: 10_000,
-        volume_radius: [0.02, 0.02],
-        photons_scale: 1,
-    });
-    // Coloured extinction in a grid (σ_t 1, 2 and 3 in the three channels, albedo 1): spectral
-    // tracking must keep every channel at L_e. The kernel bias is bounded as above with the
-    // channel whose σ e^{−σ (1 − r)} is largest (σ = 1).
-    let coloured_bias = move |r: f64| r / (2.0 * cos_max) * (-(1.0 - r)).exp();
-    out.push(Case {
-        name: "white furnace, coloured σ_t (1, 2, 3), g 0.5".into(),
-        medium: "vdb",
-        toml: format!(
-            "{camera}[media.fog]\n{}\nsigma_a = 0\nsigma_s = [1, 2, 3]\ng = 0.5\n\n{}",
-            box_grid(media_dir),
-            furnace_walls(1.0)
+        furnace_case("white furnace (σ_t 2, g 0.5)", "vdb", &format!("{grid}\n{white}"), 2.0),
+        furnace_case(
+            "white furnace, coloured σ_t (1, 2, 3), g 0.5",
+            "vdb",
+            &format!("{grid}\nsigma_a = 0\nsigma_s = [1, 2, 3]\ng = 0.5"),
+            1.0,
         ),
-        reference: 1.0,
-        bias: Box::new(move |_, r| coloured_bias(r)),
-        setup_bias: 0.0,
-        max_bounces: 10_000,
-        volume_radius: [0.02, 0.02],
-        photons_scale: 1,
-    });
-    out
+    ]
 }
 
 /// Beer–Lambert through a homogeneous slab and through the gradient grid.
@@ -596,50 +580,25 @@ fn emission_cases(media_dir: &Path) -> Vec<Case> {
     // emits the same L_e, and scatters (σ_s 1.5, g 0.5): the radiance is L_e everywhere, as in
     // the white furnace (what the medium absorbs it emits again). Photons leave the walls and
     // the medium; the hybrid's next-event estimation sees the walls only.
-    let camera = "[camera]\ntype = \"perspective\"\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 20\nresolution = [8, 8]\nmedium = \"fog\"\n\n";
-    let cos_max = ((20f64.to_radians() / 2.0).tan() * 2f64.sqrt()).atan().cos();
-    // The white furnace's kernel bias at the walls (σ_t 2; the scattered source σ_s L_e = 1.5 is
-    // below the σ_t L_e = 2 it was derived for).
-    let sigma = 2.0;
-    let furnace_bias = move |r: f64| sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp();
+    // (σ_t 2: the scattered source σ_s L_e = 1.5 is below the σ_t L_e = 2 the bias bound was
+    // derived for.)
+    let emitting = "sigma_a = 0.5\nsigma_s = 1.5\ng = 0.5\nemission = 1";
     for (medium, fog) in
         [("homogeneous", "type = \"homogeneous\"".to_string()), ("vdb", box_grid(media_dir))]
     {
-        out.push(Case {
-            name: "emitting furnace (σ_a 0.5, σ_s 1.5, g 0.5)".into(),
-            medium,
-            toml: format!(
-                "{camera}[media.fog]\n{fog}\nsigma_a = 0.5\nsigma_s = 1.5\ng = 0.5\nemission = 1\n\n{}",
-                furnace_walls(1.0)
-            ),
-            reference: 1.0,
-            bias: Box::new(move |_, r| furnace_bias(r)),
-            setup_bias: 0.0,
-            max_bounces: 10_000,
-            volume_radius: [0.02, 0.02],
-            photons_scale: 1,
-        });
+        let fog = format!("{fog}\n{emitting}");
+        out.push(furnace_case("emitting furnace (σ_a 0.5, σ_s 1.5, g 0.5)", medium, &fog, 2.0));
     }
     // The same furnace with a single-scattering albedo that varies through the medium, from
     // colour grids (media/albedo.vdb: linear along each axis, within [0.1, 0.9]): the radiance
     // is L_e whatever the albedo field, since the medium emits σ_a(p) L_e wherever it absorbs.
     // σ_t = 2 as above; the scattered source σ_s(p) L_e ≤ 1.8 keeps the wall bias bound, and a
     // linear albedo adds no kernel bias inside (the kernel is symmetric).
-    let fog = box_grid(media_dir).replace("box.vdb", "albedo.vdb");
-    out.push(Case {
-        name: "emitting furnace, albedo grid (σ_t 2, g 0.5)".into(),
-        medium: "vdb",
-        toml: format!(
-            "{camera}[media.fog]\n{fog}\nsigma_a = 0.5\nsigma_s = 1.5\ng = 0.5\nemission = 1\nalbedo_grid = {{ grids = [\"albedo.r\", \"albedo.g\", \"albedo.b\"] }}\n\n{}",
-            furnace_walls(1.0)
-        ),
-        reference: 1.0,
-        bias: Box::new(move |_, r| furnace_bias(r)),
-        setup_bias: 0.0,
-        max_bounces: 10_000,
-        volume_radius: [0.02, 0.02],
-        photons_scale: 1,
-    });
+    let fog = format!(
+        "{}\n{emitting}\nalbedo_grid = {{ grids = [\"albedo.r\", \"albedo.g\", \"albedo.b\"] }}",
+        box_grid(media_dir).replace("box.vdb", "albedo.vdb")
+    );
+    out.push(furnace_case("emitting furnace, albedo grid (σ_t 2, g 0.5)", "vdb", &fog, 2.0));
     out
 }
 

@@ -586,31 +586,25 @@ fn for_each_item(
     name: &str,
     mut f: impl FnMut(IVec3, i32, f32),
 ) -> Result<()> {
-    let grid = match &read.source {
-        Source::Vdb(grid) => grid,
+    // vdb-rs indexes its leaf buffers here, and the callers' arithmetic on what a corrupt file
+    // says (origins near the ends of i32) can panic for either reader: contained, and reported.
+    let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match &read.source {
+        Source::Vdb(grid) => {
+            for (p, v, level) in grid.iter() {
+                f(IVec3::new(p.x as i32, p.y as i32, p.z as i32), level.scale() as i32, v);
+            }
+            Ok(())
+        }
         Source::Half(bytes) => {
-            // The callers' arithmetic on what a corrupt file says (origins near the ends of
-            // i32) can still panic: contained and reported, as for vdb-rs.
-            let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                super::vdbscan::for_each_half(bytes, name, &mut |p, edge, v| {
-                    f(IVec3::from(p), edge, v)
-                })
-            }));
-            return match run {
-                Ok(r) => r.map_err(|e| volume_error(path, format!("grid `{name}`: {e}"))),
-                Err(_) => Err(volume_error(
-                    path,
-                    format!("grid `{name}`: corrupt data (voxels out of any usable range)"),
-                )),
-            };
+            super::vdbscan::for_each_half(bytes, name, &mut |p, edge, v| f(IVec3::from(p), edge, v))
         }
-    };
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        for (p, v, level) in grid.iter() {
-            f(IVec3::new(p.x as i32, p.y as i32, p.z as i32), level.scale() as i32, v);
+    }));
+    match run {
+        Ok(r) => r.map_err(|e| volume_error(path, format!("grid `{name}`: {e}"))),
+        Err(_) => {
+            Err(volume_error(path, format!("grid `{name}`: corrupt data (the reader failed)")))
         }
-    }))
-    .map_err(|_| volume_error(path, format!("grid `{name}`: corrupt data (the reader failed)")))
+    }
 }
 
 /// What the first pass over a grid's voxels finds.
