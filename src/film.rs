@@ -11,6 +11,10 @@
 //! one render of all the iterations, and so a bit-identical image. (Floating-point sums would
 //! differ in their last bits with the grouping.) The range is ±2⁶⁷ ≈ 1.5 · 10²⁰ per sum; a value
 //! that would leave it saturates and is counted ([`Film::saturated`]).
+//!
+//! **Kernel bias.** A photon-mapping film also sums, in the same way, each iteration's estimate
+//! of its kernel bias ([`crate::estimate::Estimate`]), so the bias of the mean image and that
+//! estimate's own variance survive splitting, merging and resuming exactly.
 
 use crate::math::Rgb;
 
@@ -28,13 +32,110 @@ pub struct ErrorEstimate {
     pub confidence: f64,
 }
 
-/// The accumulated render.
+/// Exact sums of values and of their squares, per pixel and channel.
+#[derive(Clone, Debug, PartialEq)]
+struct Sums {
+    sum: Vec<[i128; 3]>,
+    sum_sq: Vec<[i128; 3]>,
+}
+
+impl Sums {
+    fn new(n: usize) -> Self {
+        Sums { sum: vec![[0; 3]; n], sum_sq: vec![[0; 3]; n] }
+    }
+
+    /// Adds one image; returns the number of values saturated.
+    fn add(&mut self, image: &[Rgb]) -> u64 {
+        debug_assert_eq!(image.len(), self.sum.len());
+        let mut saturated = 0;
+        let mut put = |acc: &mut i128, v: f64| {
+            let (x, bad) = match fixed(v) {
+                Some(x) => acc.overflowing_add(x),
+                None => (0, true),
+            };
+            if bad {
+                saturated += 1;
+                *acc = if v.is_sign_negative() { i128::MIN } else { i128::MAX };
+            } else {
+                *acc = x;
+            }
+        };
+        for ((s, q), p) in self.sum.iter_mut().zip(&mut self.sum_sq).zip(image) {
+            for c in 0..3 {
+                let v = p[c] as f64;
+                put(&mut s[c], v);
+                put(&mut q[c], v * v);
+            }
+        }
+        saturated
+    }
+
+    /// Adds another's sums; returns the number of sums saturated.
+    fn merge(&mut self, other: &Sums) -> u64 {
+        let mut saturated = 0;
+        let mut add = |a: &mut i128, b: i128| {
+            *a = a.checked_add(b).unwrap_or_else(|| {
+                saturated += 1;
+                a.saturating_add(b)
+            })
+        };
+        for (s, o) in self.sum.iter_mut().zip(&other.sum) {
+            (0..3).for_each(|c| add(&mut s[c], o[c]));
+        }
+        for (s, o) in self.sum_sq.iter_mut().zip(&other.sum_sq) {
+            (0..3).for_each(|c| add(&mut s[c], o[c]));
+        }
+        saturated
+    }
+
+    /// The mean of `n` values.
+    fn mean(&self, n: u64) -> Vec<[f32; 3]> {
+        let inv = if n == 0 { 0.0 } else { 1.0 / n as f64 };
+        self.sum.iter().map(|s| s.map(|x| (x as f64 / SCALE * inv) as f32)).collect()
+    }
+
+    /// The sample variance of `n` values over n (zero below two).
+    fn variance_of_mean(&self, n: u64) -> Vec<[f32; 3]> {
+        if n < 2 {
+            return vec![[0.0; 3]; self.sum.len()];
+        }
+        let n = n as f64;
+        self.sum
+            .iter()
+            .zip(&self.sum_sq)
+            .map(|(s, q)| {
+                let mut out = [0.0f32; 3];
+                for c in 0..3 {
+                    let (s, q) = (s[c] as f64 / SCALE, q[c] as f64 / SCALE);
+                    let var = ((q - s * s / n) / (n - 1.0)).max(0.0);
+                    out[c] = (var / n) as f32;
+                }
+                out
+            })
+            .collect()
+    }
+
+    /// Sums whose mean after `n` values is `image` and whose variance is zero.
+    fn replace(&mut self, image: &[Rgb], n: u64) {
+        let n = n as f64;
+        for ((s, q), p) in self.sum.iter_mut().zip(&mut self.sum_sq).zip(image) {
+            for c in 0..3 {
+                let total = p[c] as f64 * n;
+                s[c] = fixed(total).unwrap_or(0);
+                q[c] = fixed(total * total / n).unwrap_or(0);
+            }
+        }
+    }
+}
+
+/// The accumulated render: the sums of the iteration images and, for photon mapping, of their
+/// kernel-bias estimates ([`crate::estimate::Estimate`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     width: u32,
     height: u32,
-    sum: Vec<[i128; 3]>,
-    sum_sq: Vec<[i128; 3]>,
+    value: Sums,
+    bias: Option<Sums>,
     iterations: u64,
     saturated: u64,
 }
@@ -47,17 +148,16 @@ fn fixed(v: f64) -> Option<i128> {
 }
 
 impl Film {
-    /// An empty film.
+    /// An empty film (without kernel-bias sums: the path tracer's).
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
-        Self {
-            width,
-            height,
-            sum: vec![[0; 3]; n],
-            sum_sq: vec![[0; 3]; n],
-            iterations: 0,
-            saturated: 0,
-        }
+        Self { width, height, value: Sums::new(n), bias: None, iterations: 0, saturated: 0 }
+    }
+
+    /// An empty film that also sums the iterations' kernel-bias estimates (photon mapping's).
+    pub fn with_bias(width: u32, height: u32) -> Self {
+        let n = width as usize * height as usize;
+        Self { bias: Some(Sums::new(n)), ..Self::new(width, height) }
     }
 
     /// Width in pixels.
@@ -80,52 +180,44 @@ impl Film {
         self.saturated
     }
 
-    /// Adds one finished iteration image (row-major, top row first).
+    /// True if the film sums kernel-bias estimates.
+    pub fn has_bias(&self) -> bool {
+        self.bias.is_some()
+    }
+
+    /// Adds one finished iteration image (row-major, top row first); its kernel bias, if the
+    /// film sums one, is taken as zero.
     pub fn add(&mut self, image: &[Rgb]) {
-        debug_assert_eq!(image.len(), self.sum.len());
-        let mut saturated = 0;
-        let mut put = |acc: &mut i128, v: f64| {
-            let (x, bad) = match fixed(v) {
-                Some(x) => acc.overflowing_add(x),
-                None => (0, true),
-            };
-            if bad {
-                saturated += 1;
-                *acc = if v.is_sign_negative() { i128::MIN } else { i128::MAX };
-            } else {
-                *acc = x;
-            }
-        };
-        for ((s, q), p) in self.sum.iter_mut().zip(&mut self.sum_sq).zip(image) {
-            for c in 0..3 {
-                let v = p[c] as f64;
-                put(&mut s[c], v);
-                put(&mut q[c], v * v);
-            }
+        self.saturated += self.value.add(image);
+        if let Some(b) = &mut self.bias {
+            self.saturated += b.add(&vec![Rgb::ZERO; image.len()]);
         }
-        self.saturated += saturated;
+        self.iterations += 1;
+    }
+
+    /// Adds one finished iteration image and the estimate of its kernel bias (ignored by a film
+    /// without bias sums).
+    pub fn add_with_bias(&mut self, image: &[Rgb], bias: &[Rgb]) {
+        debug_assert_eq!(image.len(), bias.len());
+        self.saturated += self.value.add(image);
+        if let Some(b) = &mut self.bias {
+            self.saturated += b.add(bias);
+        }
         self.iterations += 1;
     }
 
     /// Adds the sums of another film of the same size (disjoint iterations, e.g. another range
-    /// of the same render). Exact: the result does not depend on the order of merging.
+    /// of the same render). Exact: the result does not depend on the order of merging. The
+    /// result has bias sums only if both films have them.
     ///
     /// # Panics
     /// If the sizes differ ([`crate::Partial::merge`] checks before it merges).
     pub fn merge(&mut self, other: &Film) {
         assert_eq!((self.width, self.height), (other.width, other.height), "film sizes differ");
-        let mut saturated = 0;
-        let mut add = |a: &mut i128, b: i128| {
-            *a = a.checked_add(b).unwrap_or_else(|| {
-                saturated += 1;
-                a.saturating_add(b)
-            })
-        };
-        for (s, o) in self.sum.iter_mut().zip(&other.sum) {
-            (0..3).for_each(|c| add(&mut s[c], o[c]));
-        }
-        for (s, o) in self.sum_sq.iter_mut().zip(&other.sum_sq) {
-            (0..3).for_each(|c| add(&mut s[c], o[c]));
+        let mut saturated = self.value.merge(&other.value);
+        match (&mut self.bias, &other.bias) {
+            (Some(a), Some(b)) => saturated += a.merge(b),
+            _ => self.bias = None,
         }
         self.iterations += other.iterations;
         self.saturated += other.saturated + saturated;
@@ -133,8 +225,7 @@ impl Film {
 
     /// The mean of the iterations so far (black before the first).
     pub fn mean(&self) -> Vec<[f32; 3]> {
-        let inv = if self.iterations == 0 { 0.0 } else { 1.0 / self.iterations as f64 };
-        self.sum.iter().map(|s| s.map(|x| (x as f64 / SCALE * inv) as f32)).collect()
+        self.value.mean(self.iterations)
     }
 
     /// Each pixel's estimated variance of the mean: the sample variance of its iteration values
@@ -142,57 +233,76 @@ impl Film {
     /// the iterations are identically distributed (the path tracer); for photon mapping, whose
     /// iterations drift as the radius shrinks, it also counts that drift and so overstates the noise.
     pub fn variance_of_mean(&self) -> Vec<[f32; 3]> {
-        let n = self.iterations as f64;
-        if self.iterations < 2 {
-            return vec![[0.0; 3]; self.sum.len()];
-        }
-        self.sum
-            .iter()
-            .zip(&self.sum_sq)
-            .map(|(s, q)| {
-                let mut out = [0.0f32; 3];
-                for c in 0..3 {
-                    let (s, q) = (s[c] as f64 / SCALE, q[c] as f64 / SCALE);
-                    let var = ((q - s * s / n) / (n - 1.0)).max(0.0);
-                    out[c] = (var / n) as f32;
-                }
-                out
-            })
-            .collect()
+        self.value.variance_of_mean(self.iterations)
     }
 
-    /// The image's estimated relative error from its noise (docs/error.md): with v each pixel's
-    /// and channel's variance of the mean ([`Self::variance_of_mean`]), V its mean and m the
-    /// image's mean value, the relative RMSE √V / m, and its upper confidence limit at
-    /// `confidence`: √(V + z·s) / m with z the one-sided normal quantile and s the standard error
-    /// of V, from the sampling variance of each v (2v²/(N − 1) for N iterations, as for Gaussian
-    /// values; pixels independent, a pixel's three channels fully correlated). `None` before the
-    /// second iteration; zero for a black image without noise.
-    pub fn error_estimate(&self, confidence: f64) -> Option<ErrorEstimate> {
+    /// Each pixel's estimated kernel bias: the mean of the iterations' bias estimates (docs/
+    /// theory.md), the bias of [`Self::mean`]; `None` for a film without bias sums.
+    pub fn bias(&self) -> Option<Vec<[f32; 3]>> {
+        self.bias.as_ref().map(|b| b.mean(self.iterations))
+    }
+
+    /// The variance of [`Self::bias`] (as [`Self::variance_of_mean`] is that of the mean).
+    pub fn bias_variance(&self) -> Option<Vec<[f32; 3]>> {
+        self.bias.as_ref().map(|b| b.variance_of_mean(self.iterations))
+    }
+
+    /// The image's estimated relative error (docs/error.md): with v each pixel's and channel's
+    /// variance of the mean ([`Self::variance_of_mean`]), V its mean and m the image's mean
+    /// value, the relative RMSE √(V + B) / m, B being the mean squared kernel bias (0 without
+    /// bias sums; below), and its upper confidence limit at `confidence`: √(V + B + z·s) / m
+    /// with z the one-sided normal quantile and s the standard error of V + B. The sampling
+    /// variance of each v is taken as 2v²/(N − 1) for N iterations, as for Gaussian values;
+    /// pixels independent, a pixel's three channels fully correlated. B is the mean over pixels
+    /// and channels of b² − w, b the bias estimate and w its variance (so that it is unbiased for
+    /// the mean squared bias), floored at 0. Over `region`'s pixels only, if given. `None`
+    /// before the second iteration; zero for a black image without noise.
+    pub fn error_estimate(
+        &self,
+        confidence: f64,
+        region: Option<crate::output::Region>,
+    ) -> Option<ErrorEstimate> {
         if self.iterations < 2 {
             return None;
         }
         let n = self.iterations as f64;
+        let variance = self.variance_of_mean();
+        let mean = self.mean();
+        let (bias, bias_var) = (self.bias(), self.bias_variance());
         let (mut sum, mut v, mut v2, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-        for (s, q) in self.sum.iter().zip(&self.sum_sq) {
-            let mut pixel = 0.0;
+        let (mut b, mut b2) = (0.0f64, 0.0f64);
+        let w = self.width as usize;
+        let inside = |i: usize| {
+            region.is_none_or(|r| {
+                let (x, y) = ((i % w) as u32, (i / w) as u32);
+                x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1
+            })
+        };
+        for (i, (m, var)) in mean.iter().zip(&variance).enumerate().filter(|(i, _)| inside(*i)) {
+            let (mut pixel, mut pixel_b) = (0.0, 0.0);
             for c in 0..3 {
-                let (s, q) = (s[c] as f64 / SCALE, q[c] as f64 / SCALE);
-                let var = ((q - s * s / n) / (n - 1.0)).max(0.0) / n;
-                sum += s / n;
-                pixel += var;
+                sum += m[c] as f64;
+                pixel += var[c] as f64;
                 count += 1.0;
+                if let (Some(bias), Some(w)) = (&bias, &bias_var) {
+                    let (bb, w) = (bias[i][c] as f64, w[i][c] as f64);
+                    b += bb * bb - w;
+                    // Sampling variance of b² − w: 4 b² w + 2 w² (Gaussian b).
+                    pixel_b += (4.0 * (bb * bb - w).max(0.0) * w + 2.0 * w * w).sqrt();
+                }
             }
             v += pixel;
             // A pixel's channels come from the same paths: their variance estimates' errors are
             // taken as fully correlated (the sampling s.d. of the three add).
             v2 += pixel * pixel;
+            b2 += pixel_b * pixel_b;
         }
         let (mean, v_mean) = (sum / count, v / count);
+        let b_mean = (b / count).max(0.0);
         if mean.is_nan() || mean < 0.0 {
             return None;
         }
-        if mean == 0.0 && v_mean == 0.0 {
+        if mean == 0.0 && v_mean == 0.0 && b_mean == 0.0 {
             // A black image without noise: nothing left to estimate (and a render stopping on a
             // target must stop).
             return Some(ErrorEstimate { relative_rmse: 0.0, upper: 0.0, confidence });
@@ -200,47 +310,60 @@ impl Film {
         if mean == 0.0 {
             return None;
         }
-        let se = (2.0 * v2 / (n - 1.0)).sqrt() / count;
+        let se = ((2.0 * v2 / (n - 1.0)) + b2).sqrt() / count;
         let z = crate::math::normal_quantile(confidence.clamp(1e-9, 1.0 - 1e-9));
+        let total = v_mean + b_mean;
         Some(ErrorEstimate {
-            relative_rmse: v_mean.sqrt() / mean,
-            upper: (v_mean + z * se).max(0.0).sqrt() / mean,
+            relative_rmse: total.sqrt() / mean,
+            upper: (total + z * se).max(0.0).sqrt() / mean,
             confidence,
         })
     }
 
     /// Counts one more iteration whose running estimate is `image` itself rather than a term of
     /// a mean (the original PPM keeps per-pixel statistics, not a mean of iterations): afterwards
-    /// [`Self::mean`] returns `image` and the variance estimate is zero.
-    pub fn replace(&mut self, image: &[Rgb]) {
-        debug_assert_eq!(image.len(), self.sum.len());
+    /// [`Self::mean`] returns `image`, [`Self::bias`] returns `bias` (if the film sums one and
+    /// `bias` is given), and the variance estimates are zero.
+    pub fn replace(&mut self, image: &[Rgb], bias: Option<&[Rgb]>) {
+        debug_assert_eq!(image.len(), self.value.sum.len());
         self.iterations += 1;
-        let n = self.iterations as f64;
-        for ((s, q), p) in self.sum.iter_mut().zip(&mut self.sum_sq).zip(image) {
-            for c in 0..3 {
-                let total = p[c] as f64 * n;
-                s[c] = fixed(total).unwrap_or(0);
-                q[c] = fixed(total * total / n).unwrap_or(0);
+        self.value.replace(image, self.iterations);
+        if let Some(b) = &mut self.bias {
+            match bias {
+                Some(bias) => b.replace(bias, self.iterations),
+                None => b.replace(&vec![Rgb::ZERO; image.len()], self.iterations),
             }
         }
     }
 
     /// The raw sums, for partial-render files: per pixel the sums of values and of squares, in
-    /// units of 2⁻⁶⁰.
-    pub(crate) fn sums(&self) -> (&[[i128; 3]], &[[i128; 3]]) {
-        (&self.sum, &self.sum_sq)
+    /// units of 2⁻⁶⁰, and the same of the bias estimates if the film has them.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn sums(&self) -> ([&[[i128; 3]]; 2], Option<[&[[i128; 3]]; 2]>) {
+        (
+            [&self.value.sum, &self.value.sum_sq],
+            self.bias.as_ref().map(|b| [&b.sum[..], &b.sum_sq[..]]),
+        )
     }
 
     /// A film from raw sums (see [`Self::sums`]).
+    #[allow(clippy::type_complexity)]
     pub(crate) fn from_sums(
         width: u32,
         height: u32,
-        sum: Vec<[i128; 3]>,
-        sum_sq: Vec<[i128; 3]>,
+        [sum, sum_sq]: [Vec<[i128; 3]>; 2],
+        bias: Option<[Vec<[i128; 3]>; 2]>,
         iterations: u64,
         saturated: u64,
     ) -> Self {
-        Self { width, height, sum, sum_sq, iterations, saturated }
+        Self {
+            width,
+            height,
+            value: Sums { sum, sum_sq },
+            bias: bias.map(|[sum, sum_sq]| Sums { sum, sum_sq }),
+            iterations,
+            saturated,
+        }
     }
 }
 
@@ -256,16 +379,16 @@ mod tests {
         for _ in 0..3 {
             black.add(&[Rgb::ZERO; 4]);
         }
-        let e = black.error_estimate(0.95).unwrap();
+        let e = black.error_estimate(0.95, None).unwrap();
         assert_eq!((e.relative_rmse, e.upper), (0.0, 0.0));
         let mut noisy = Film::new(1, 1);
         for v in [1.0, 3.0] {
             noisy.add(&[Rgb::splat(v)]);
         }
         // Sample variance 2, of the mean 1; mean 2: √1 / 2.
-        let e = noisy.error_estimate(0.95).unwrap();
+        let e = noisy.error_estimate(0.95, None).unwrap();
         assert!((e.relative_rmse - 0.5).abs() < 1e-12 && e.upper > e.relative_rmse, "{e:?}");
-        assert!(Film::new(1, 1).error_estimate(0.95).is_none());
+        assert!(Film::new(1, 1).error_estimate(0.95, None).is_none());
     }
 
     /// Values spread over many orders of magnitude, added in two groupings: floating-point sums

@@ -41,8 +41,9 @@ pub struct RenderInfo {
     pub truncated_trackings: u64,
 }
 
-/// A rectangle of pixels, [x0, x1) × [y0, y1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A rectangle of pixels, [x0, x1) × [y0, y1); in scene files `[x0, y0, x1, y1]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(into = "[u32; 4]", try_from = "[u32; 4]")]
 pub struct Region {
     /// Left column.
     pub x0: u32,
@@ -52,6 +53,38 @@ pub struct Region {
     pub x1: u32,
     /// One past the bottom row.
     pub y1: u32,
+}
+
+impl From<Region> for [u32; 4] {
+    fn from(r: Region) -> Self {
+        [r.x0, r.y0, r.x1, r.y1]
+    }
+}
+
+impl TryFrom<[u32; 4]> for Region {
+    type Error = String;
+    fn try_from([x0, y0, x1, y1]: [u32; 4]) -> std::result::Result<Self, String> {
+        if x0 < x1 && y0 < y1 {
+            Ok(Region { x0, y0, x1, y1 })
+        } else {
+            Err(format!("region [{x0}, {y0}, {x1}, {y1}] is empty: need x0 < x1 and y0 < y1"))
+        }
+    }
+}
+
+impl Region {
+    /// The region of a `width` × `height` image that is this one clipped to it; `Err` naming the
+    /// image if it lies outside.
+    pub fn check_within(&self, width: u32, height: u32) -> std::result::Result<(), String> {
+        if self.x1 > width || self.y1 > height {
+            Err(format!(
+                "region {},{},{},{} lies outside the {width}x{height} image",
+                self.x0, self.y0, self.x1, self.y1
+            ))
+        } else {
+            Ok(())
+        }
+    }
 }
 
 impl std::str::FromStr for Region {
@@ -84,6 +117,12 @@ pub struct Image {
     /// [`Film::variance_of_mean`]), written as the EXR layer `variance`; `None` where there is
     /// no estimate (fewer than two iterations, or the original PPM's running statistics).
     pub variance: Option<Vec<[f32; 3]>>,
+    /// Each pixel's estimated kernel bias ([`Film::bias`]): photon mapping's images, written as
+    /// the EXR layer `bias`; `None` for the path tracer (no kernel, no bias).
+    pub bias: Option<Vec<[f32; 3]>>,
+    /// The variance of the bias estimate ([`Film::bias_variance`]), the EXR layer
+    /// `bias_variance`; `None` where `variance` is.
+    pub bias_variance: Option<Vec<[f32; 3]>>,
     /// How it was made.
     pub info: RenderInfo,
 }
@@ -107,15 +146,44 @@ fn srgb8(v: f32) -> u8 {
 impl Image {
     /// The mean of a film's iterations.
     pub fn from_film(film: &Film, info: RenderInfo) -> Self {
+        let noisy = film.iterations() >= 2
+            && info.settings.progression == crate::settings::Progression::Probabilistic;
         Self {
             width: film.width(),
             height: film.height(),
             pixels: film.mean(),
-            variance: (film.iterations() >= 2
-                && info.settings.progression == crate::settings::Progression::Probabilistic)
-                .then(|| film.variance_of_mean()),
+            variance: noisy.then(|| film.variance_of_mean()),
+            bias: film.bias().filter(|_| film.iterations() >= 1),
+            bias_variance: film.bias_variance().filter(|_| noisy),
             info,
         }
+    }
+
+    /// The estimated kernel bias of the image relative to its mean, over `region` (or the whole
+    /// image): Σ b / Σ m over the region's pixels and channels, b the bias layer, with its
+    /// standard error from the bias estimate's variance (pixels independent). `None` without a
+    /// bias layer or on a black image.
+    pub fn relative_bias(&self, region: Option<Region>) -> Option<(f64, Option<f64>)> {
+        let bias = self.bias.as_ref()?;
+        let (mut sum, mut b, mut var) = (0.0f64, 0.0f64, 0.0f64);
+        for i in self.region_pixels(region) {
+            sum += self.pixels[i].iter().map(|&c| c as f64).sum::<f64>();
+            b += bias[i].iter().map(|&c| c as f64).sum::<f64>();
+            if let Some(v) = &self.bias_variance {
+                // A pixel's channels fully correlated: the s.d. of the three add.
+                var += v[i].iter().map(|&c| (c as f64).sqrt()).sum::<f64>().powi(2);
+            }
+        }
+        let se = self.bias_variance.as_ref().map(|_| var.sqrt() / sum);
+        (sum > 0.0).then(|| (b / sum, se))
+    }
+
+    /// The indices of the pixels of `region` (or of the whole image).
+    fn region_pixels(&self, region: Option<Region>) -> impl Iterator<Item = usize> + use<> {
+        let (w, h) = (self.width, self.height);
+        let r = region.unwrap_or(Region { x0: 0, y0: 0, x1: w, y1: h });
+        (r.y0..r.y1.min(h))
+            .flat_map(move |y| (r.x0..r.x1.min(w)).map(move |x| (y * w + x) as usize))
     }
 
     /// The estimated noise of the image relative to its mean, over `region` (or the whole
@@ -124,16 +192,11 @@ impl Image {
     /// measures errors. `None` without a variance estimate or on a black image.
     pub fn relative_noise(&self, region: Option<Region>) -> Option<f64> {
         let variance = self.variance.as_ref()?;
-        let (w, h) = (self.width, self.height);
-        let r = region.unwrap_or(Region { x0: 0, y0: 0, x1: w, y1: h });
         let (mut sum, mut var, mut n) = (0.0f64, 0.0f64, 0.0f64);
-        for y in r.y0..r.y1.min(h) {
-            for x in r.x0..r.x1.min(w) {
-                let i = (y * w + x) as usize;
-                sum += self.pixels[i].iter().map(|&c| c as f64).sum::<f64>();
-                var += variance[i].iter().map(|&c| c as f64).sum::<f64>();
-                n += 3.0;
-            }
+        for i in self.region_pixels(region) {
+            sum += self.pixels[i].iter().map(|&c| c as f64).sum::<f64>();
+            var += variance[i].iter().map(|&c| c as f64).sum::<f64>();
+            n += 3.0;
         }
         (n > 0.0 && sum > 0.0).then(|| (var / n).sqrt() / (sum / n))
     }
@@ -213,72 +276,79 @@ impl Image {
         use exr::meta::attribute::{AttributeValue, Text};
         use exr::prelude::*;
         let w = self.width as usize;
-        let pixels = &self.pixels;
-        let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
-            let [r, g, b] = pixels[p.y() * w + p.x()];
-            (r, g, b)
-        });
-        let mut attrs = LayerAttributes::named("haze");
+        let size = (self.width as usize, self.height as usize);
+        let text = |v: &str| AttributeValue::Text(Text::new_or_none(v).unwrap_or_default());
+        type RgbLayer<'a> = Layer<SpecificChannels<Plane<'a>, exr::image::RgbChannels>>;
+        let layer = |name: &str, data, note: Option<&str>| -> RgbLayer<'_> {
+            let mut attrs = LayerAttributes::named(name);
+            if let Some(note) = note {
+                attrs.other.insert(Text::from(format!("haze:{name}").as_str()), text(note));
+            }
+            let channels = SpecificChannels::rgb(Plane { data, width: w });
+            Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels)
+        };
+        let mut main = layer("haze", &self.pixels, None);
+        let attrs = &mut main.attributes;
         attrs.software_name = Some(Text::from("haze"));
         let info = &self.info;
         let mut put = |k: &str, v: AttributeValue| {
             attrs.other.insert(Text::from(format!("haze:{k}").as_str()), v);
         };
-        let text =
-            |v: String| AttributeValue::Text(Text::new_or_none(v.as_str()).unwrap_or_default());
         for (key, value) in info.settings.entries() {
-            put(&format!("render.{key}"), text(value));
+            put(&format!("render.{key}"), text(&value));
         }
-        put("iterations", text(info.iterations.to_string()));
-        put("firstIteration", text(info.first_iteration.to_string()));
-        put("lightPaths", text(info.light_paths.to_string()));
+        put("iterations", text(&info.iterations.to_string()));
+        put("firstIteration", text(&info.first_iteration.to_string()));
+        put("lightPaths", text(&info.light_paths.to_string()));
         put("radius", AttributeValue::F64(info.radius));
         put("initialRadius", AttributeValue::F64(info.initial_radius));
         put("volumeRadius", AttributeValue::F64(info.volume_radius));
         put("volumeInitialRadius", AttributeValue::F64(info.volume_initial_radius));
         put("elapsedSeconds", AttributeValue::F64(info.elapsed));
-        put("nonfiniteSamples", text(info.nonfinite_samples.to_string()));
-        put("truncatedTrackings", text(info.truncated_trackings.to_string()));
+        put("nonfiniteSamples", text(&info.nonfinite_samples.to_string()));
+        put("truncatedTrackings", text(&info.truncated_trackings.to_string()));
         let scene = info.scene.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
         // EXR text attributes are byte strings; keep the scene path if it is representable.
         if let Some(t) = Text::new_or_none(scene.as_str()) {
             put("scene", AttributeValue::Text(t));
         }
-        let size = (self.width as usize, self.height as usize);
         if reference {
-            let description = self.reference_description();
-            attrs.other.insert(
-                Text::from("haze:reference"),
-                AttributeValue::Text(Text::new_or_none(description.as_str()).unwrap_or_default()),
-            );
+            put("reference", text(&self.reference_description()));
         }
-        let layer = Layer::new(size, attrs, Encoding::SMALL_LOSSLESS, channels);
-        let bounds = exr::math::Vec2(size.0, size.1);
-        let image = Image::empty(ImageAttributes::new(IntegerBounds::from_dimensions(bounds)))
-            .with_layer(layer);
-        let Some(variance) = &self.variance else {
-            return write_atomically(path, |w| {
-                image.write().to_buffered(w).map_err(|e| e.to_string())
-            });
-        };
+        let mut layers = vec![main];
         // Every render carries its noise estimate. Only the path tracer's iterations are
         // identically distributed; photon-mapping iterations drift as the radius shrinks, so
         // their spread also counts that drift (a slight overstatement of the noise), and
         // `haze converge` uses the layer of path-traced references only.
-        let var_channels = SpecificChannels::rgb(|p: Vec2<usize>| {
-            let [r, g, b] = variance[p.y() * w + p.x()];
-            (r, g, b)
-        });
-        let mut var_attrs = LayerAttributes::named("variance");
-        var_attrs.other.insert(
-            Text::from("haze:variance"),
-            AttributeValue::Text(Text::from(match self.info.settings.integrator {
-                Integrator::Path => "estimated variance of the mean per pixel: the sample variance of the iterations / their count",
-                _ => "estimated variance of the mean per pixel: the sample variance of the iterations / their count (photon mapping: includes the drift of the iterations' means as the radius shrinks)",
-            })),
+        if let Some(variance) = &self.variance {
+            layers.push(layer(
+                "variance",
+                variance,
+                Some(match self.info.settings.integrator {
+                    Integrator::Path => "estimated variance of the mean per pixel: the sample variance of the iterations / their count",
+                    _ => "estimated variance of the mean per pixel: the sample variance of the iterations / their count (photon mapping: includes the drift of the iterations' means as the radius shrinks)",
+                }),
+            ));
+        }
+        if let Some(bias) = &self.bias {
+            layers.push(layer(
+                "bias",
+                bias,
+                Some("estimated kernel bias per pixel (expected value minus limit): the mean of the iterations' 2 (L_r - L_{r/sqrt 2}), docs/theory.md"),
+            ));
+        }
+        if let Some(v) = &self.bias_variance {
+            layers.push(layer(
+                "bias_variance",
+                v,
+                Some("estimated variance of the bias layer: the sample variance of the iterations' bias estimates / their count"),
+            ));
+        }
+        let bounds = exr::math::Vec2(size.0, size.1);
+        let image = Image::from_layers(
+            ImageAttributes::new(IntegerBounds::from_dimensions(bounds)),
+            layers,
         );
-        let var_layer = Layer::new(size, var_attrs, Encoding::SMALL_LOSSLESS, var_channels);
-        let image = image.with_layer(var_layer);
         write_atomically(path, |w| image.write().to_buffered(w).map_err(|e| e.to_string()))
     }
 
@@ -297,6 +367,20 @@ impl Image {
             writer.write_image_data(&data).map_err(|e| e.to_string())?;
             writer.finish().map_err(|e| e.to_string())
         })
+    }
+}
+
+/// One RGB plane of an image, as the OpenEXR writer reads it.
+struct Plane<'a> {
+    data: &'a [[f32; 3]],
+    width: usize,
+}
+
+impl exr::image::write::channels::GetPixel for Plane<'_> {
+    type Pixel = (f32, f32, f32);
+    fn get_pixel(&self, p: exr::math::Vec2<usize>) -> (f32, f32, f32) {
+        let [r, g, b] = self.data[p.y() * self.width + p.x()];
+        (r, g, b)
     }
 }
 

@@ -16,7 +16,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"HAZEPART";
-const VERSION: u32 = 1;
+/// Format 2 added the kernel-bias sums of photon-mapping films; format 1 files (without them)
+/// are still read.
+const VERSION: u32 = 2;
 /// Largest header accepted when reading (bytes).
 const MAX_HEADER: u64 = 1 << 20;
 
@@ -48,7 +50,7 @@ fn hex(bytes: &[u8]) -> String {
 /// Settings that must agree between the parts of one render: all but the stop conditions.
 fn merge_key(s: &RenderSettings) -> Vec<(String, String)> {
     // When to stop is not what is rendered.
-    let when = ["iterations", "time_limit", "target_error", "target_confidence"];
+    let when = ["iterations", "time_limit", "target_error", "target_confidence", "target_region"];
     s.entries().into_iter().filter(|(k, _)| !when.contains(&k.as_str())).collect()
 }
 
@@ -170,7 +172,8 @@ impl Partial {
     /// Writes the partial-render file (atomically).
     pub fn write(&self, path: &Path) -> Result<()> {
         let header = self.header().map_err(|e| part_err(path, format!("not written: {e}")))?;
-        let (sum, sum_sq) = self.film.sums();
+        let ([sum, sum_sq], bias) = self.film.sums();
+        let [bias_sum, bias_sq] = bias.unwrap_or([&[], &[]]);
         let state = self.state.as_deref().unwrap_or(&[]);
         write_atomically(path, |w| {
             let mut put = |b: &[u8]| w.write_all(b).map_err(|e| e.to_string());
@@ -180,7 +183,7 @@ impl Partial {
             put(header.as_bytes())?;
             put(&(state.len() as u64).to_le_bytes())?;
             put(state)?;
-            for px in sum.iter().chain(sum_sq) {
+            for px in sum.iter().chain(sum_sq).chain(bias_sum).chain(bias_sq) {
                 for c in px {
                     put(&c.to_le_bytes())?;
                 }
@@ -196,8 +199,9 @@ impl Partial {
         let mut h = sha2::Sha256::new();
         h.update(header.as_bytes());
         h.update(state);
-        let (sum, sum_sq) = self.film.sums();
-        for px in sum.iter().chain(sum_sq) {
+        let ([sum, sum_sq], bias) = self.film.sums();
+        let [bias_sum, bias_sq] = bias.unwrap_or([&[], &[]]);
+        for px in sum.iter().chain(sum_sq).chain(bias_sum).chain(bias_sq) {
             for c in px {
                 h.update(c.to_le_bytes());
             }
@@ -226,6 +230,7 @@ impl Partial {
         put("nonfinite_samples", (i.nonfinite_samples as i64).into());
         put("truncated_trackings", (i.truncated_trackings as i64).into());
         put("saturated_values", (self.film.saturated() as i64).into());
+        put("bias_sums", self.film.has_bias().into());
         if let Some(scene) = i.scene.as_ref().and_then(|p| p.to_str()) {
             put("scene", scene.into());
         }
@@ -256,8 +261,10 @@ impl Partial {
         let u32_of = |b: &[u8]| u32::from_le_bytes(b.try_into().unwrap_or_default());
         let u64_of = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap_or_default());
         let version = u32_of(take(4, "version")?);
-        if version != VERSION {
-            return Err(err(format!("partial render format {version}; this haze reads {VERSION}")));
+        if version != VERSION && version != 1 {
+            return Err(err(format!(
+                "partial render format {version}; this haze reads formats 1 to {VERSION}"
+            )));
         }
         let n = u64_of(take(8, "header")?);
         if n > MAX_HEADER {
@@ -297,6 +304,16 @@ impl Partial {
         };
         let sum = read_sums("sums")?;
         let sum_sq = read_sums("sums of squares")?;
+        let has_bias = match t.get("bias_sums") {
+            None if version == 1 => false,
+            Some(toml::Value::Boolean(b)) => *b,
+            _ => return Err(err("header: `bias_sums` missing or not true/false".into())),
+        };
+        let bias = if has_bias {
+            Some([read_sums("bias sums")?, read_sums("bias sums of squares")?])
+        } else {
+            None
+        };
         let stored: [u8; 32] = take(32, "checksum")?.try_into().unwrap_or_default();
         if at != bytes.len() {
             return Err(err(format!("{} bytes after the end (corrupt file)", bytes.len() - at)));
@@ -341,8 +358,8 @@ impl Partial {
         let film = Film::from_sums(
             width as u32,
             height as u32,
-            sum,
-            sum_sq,
+            [sum, sum_sq],
+            bias,
             iterations,
             int("saturated_values")?,
         );

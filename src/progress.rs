@@ -36,9 +36,10 @@ impl Status<'_> {
     }
 
     /// The image's estimated relative error so far, at the render's `target_confidence`
-    /// ([`Film::error_estimate`]; the noise only, for photon mapping).
+    /// ([`Film::error_estimate`]: the noise and, for photon mapping, the estimated kernel bias).
     pub fn error_estimate(&self) -> Option<crate::film::ErrorEstimate> {
-        self.film.error_estimate(self.info.settings.target_confidence)
+        self.film
+            .error_estimate(self.info.settings.target_confidence, self.info.settings.target_region)
     }
 
     /// The image so far, with its metadata (for snapshots).

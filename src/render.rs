@@ -91,6 +91,10 @@ pub fn render_partial(
 ) -> Result<Partial> {
     settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
     check_radii(scene, settings)?;
+    if let Some(r) = settings.target_region {
+        let [w, h] = scene.camera.resolution;
+        r.check_within(w, h).map_err(|m| Error::Settings(format!("target_region: {m}")))?;
+    }
     if let Some(total) = physical_memory() {
         let need = memory_estimate(scene, settings);
         if need > total {
@@ -117,7 +121,7 @@ pub fn render_partial(
                         .into(),
                 ));
             }
-            (a, Film::new(width, height), None)
+            (a, method.film(width, height), None)
         }
         Start::Resume(p) => {
             let p = *p;
@@ -131,7 +135,7 @@ pub fn render_partial(
         }
     };
     let start = Instant::now();
-    let mut image = vec![crate::math::Rgb::ZERO; (width * height) as usize];
+    let mut frame = crate::integrator::Frame::new((width * height) as usize);
     let nonfinite = AtomicU64::new(0);
     let diagonal = scene.diagonal() as f64;
     let truncated_before = scene.truncated_trackings();
@@ -168,10 +172,10 @@ pub fn render_partial(
         let _finish = RaiseOnDrop(&finished);
         while !done(settings, iteration, start, stop) {
             let i = iteration + 1;
-            let Some(times) = method.iterate(scene, i, &halt, &nonfinite, &mut image) else {
+            let Some(times) = method.iterate(scene, i, &halt, &nonfinite, &mut frame) else {
                 break;
             };
-            method.accumulate(&mut film, &image);
+            method.accumulate(&mut film, &frame);
             iteration = i;
             let stored = method.photons_stored();
             progress.iteration(&Status {
@@ -253,9 +257,13 @@ pub const PILOT_PATHS: u64 = 1000;
 /// buffers. An estimate: paths vary.
 pub fn memory_estimate(scene: &Scene, settings: &RenderSettings) -> u64 {
     let [w, h] = scene.camera.resolution;
-    // Film sums and squares (i128 × 3 each), the iteration image, and the original PPM's two
-    // copies of its per-pixel statistics (64 bytes each).
-    let per_pixel = 96 + 12 + if settings.progression == Progression::Original { 128 } else { 0 };
+    // Film sums and squares (i128 × 3 each; twice with photons: the kernel-bias sums), the
+    // iteration frame (value and bias), and the original PPM's two copies of its per-pixel
+    // statistics (88 bytes each).
+    let photons = settings.integrator.uses_photons();
+    let per_pixel = 96 * (1 + photons as u64)
+        + 24
+        + if settings.progression == Progression::Original { 176 } else { 0 };
     let image = w as u64 * h as u64 * per_pixel;
     if !settings.integrator.uses_photons() || scene.lights.is_empty() {
         return image;
@@ -302,7 +310,9 @@ pub const MIN_TARGET_ITERATIONS: u64 = 8;
 fn reached_target(settings: &RenderSettings, film: &Film) -> bool {
     let Some(target) = settings.target_error else { return false };
     film.iterations() >= MIN_TARGET_ITERATIONS
-        && film.error_estimate(settings.target_confidence).is_some_and(|e| e.upper <= target)
+        && film
+            .error_estimate(settings.target_confidence, settings.target_region)
+            .is_some_and(|e| e.upper <= target)
 }
 
 /// True once the last iteration (`settings.iterations`, an index) or the time limit is reached,

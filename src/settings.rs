@@ -38,6 +38,7 @@
 //! ```
 
 pub use crate::estimate::kernel::Kernel;
+use crate::output::Region;
 use serde::{Deserialize, Serialize};
 
 /// Defines a closed set of named choices: the enum, its serde and clap names (one name per
@@ -395,15 +396,20 @@ render_settings! {
 
     /// Stop once the image's estimated relative error reaches this (a fraction; on the command
     /// line also a percentage such as 2%): the upper confidence limit, at `target_confidence`,
-    /// of the relative RMSE that the image's noise gives (docs/error.md; photon mapping's
-    /// kernel bias is not counted yet). With an iteration count or a time limit, the render
-    /// stops at whichever comes first.
+    /// of the image's estimated relative RMSE from its noise and, for photon mapping, its
+    /// estimated kernel bias (docs/error.md). With an iteration count or a time limit, the
+    /// render stops at whichever comes first.
     [long, value_name = "E", value_parser = parse_fraction_or_percent]
     target_error: f64, optional = None, open_unit;
 
     /// Confidence of `target_error`'s upper limit (default 0.95).
     [long, value_name = "C"]
     target_confidence: f64 = 0.95, open_unit;
+
+    /// Measure `target_error` over the pixels X0,Y0,X1,Y1 only (X1, Y1 exclusive; in the scene
+    /// file `[x0, y0, x1, y1]`) instead of the whole image.
+    [long, value_name = "X0,Y0,X1,Y1"]
+    target_region: Region, optional = None, any;
 
     /// Light paths emitted per iteration.
     [short = 'p', long, value_name = "N"]

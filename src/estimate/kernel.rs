@@ -47,6 +47,15 @@ impl Kernel {
             }
         }
     }
+
+    /// The kernel's values at `u2` for radius r and for the inner radius r/√2 of the bias
+    /// estimate ([`super::Estimate`]), both without the common r^−d factor: (K(u²),
+    /// 2^{d/2} K(2u²)).
+    #[inline]
+    pub fn eval_pair(self, u2: f32, dim: u32) -> (f32, f32) {
+        let inner = if dim == 3 { std::f32::consts::SQRT_2 * 2.0 } else { 2.0 };
+        (self.eval(u2, dim), inner * self.eval(2.0 * u2, dim))
+    }
 }
 
 #[cfg(test)]

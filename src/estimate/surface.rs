@@ -5,6 +5,7 @@
 //! over the photons p within r of x that landed on a surface facing the same way, with M the number
 //! of light paths emitted in the iteration.
 
+use super::Estimate;
 use super::kernel::Kernel;
 use crate::math::Rgb;
 use crate::math::luminance;
@@ -42,18 +43,20 @@ pub(crate) fn surface_radiance(
     g: &Gather,
     bounces: BounceRange,
     tally: Option<(&Tally, f32)>,
-) -> Rgb {
+) -> Estimate {
     let inv_r2 = 1.0 / (g.radius * g.radius);
-    let mut sum = Rgb::ZERO;
+    let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
     let norm = inv_r2 * g.inv_paths;
     map.query_slots(p, g.radius, |ph, slot, d2| {
         if ph.n.dot(n) > NORMAL_COS && bounces.contains(ph.bounces) {
-            let term = ph.beta * g.kernel.eval(d2 * inv_r2, 2);
+            let (k, k_inner) = g.kernel.eval_pair(d2 * inv_r2, 2);
+            let term = ph.beta * k;
             sum += term;
+            inner += ph.beta * k_inner;
             if let Some((t, scale)) = tally {
                 t.add(slot, scale * norm * luminance(f * term));
             }
         }
     });
-    f * sum * norm
+    Estimate::from_radii(f * sum * norm, f * inner * norm)
 }

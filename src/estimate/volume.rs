@@ -13,6 +13,7 @@
 //! number of scattering events in the given range. f_p takes directions of travel: the photon's
 //! ω_p and −ω, the direction towards the eye.
 
+use super::Estimate;
 use super::surface::Gather;
 use crate::math::Rgb;
 use crate::math::luminance;
@@ -48,24 +49,26 @@ pub(crate) fn beam_radiance(
     g: &Gather,
     bounces: BounceRange,
     tally: Option<(&Tally, f32)>,
-) -> Rgb {
+) -> Estimate {
     let phase = medium.phase();
     let inv_r2 = 1.0 / (g.radius * g.radius);
-    let mut sum = Rgb::ZERO;
+    let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
     let EyeSegment { o, w, t_max } = *segment;
     let norm = inv_r2 * g.inv_paths;
     map.query_slots(o, w, t_max, |ph, slot, t, d2| {
         if ph.medium as u32 == id && bounces.contains(ph.bounces) {
-            let k = g.kernel.eval(d2 * inv_r2, 2);
+            let (k, k_inner) = g.kernel.eval_pair(d2 * inv_r2, 2);
             // The beam map stores β·σ_s(x_p) as the photon's power.
-            let term = ph.beta * tr.at(t) * (phase.eval(ph.d, -w) * k);
+            let weight = ph.beta * tr.at(t) * phase.eval(ph.d, -w);
+            let term = weight * k;
             sum += term;
+            inner += weight * k_inner;
             if let Some((tally, scale)) = tally {
                 tally.add(slot, scale * norm * luminance(term));
             }
         }
     });
-    sum * norm
+    Estimate::from_radii(sum * norm, inner * norm)
 }
 
 /// The point estimate of in-scattered radiance at `x` towards −`w`, in medium `id`. With a tally
@@ -81,20 +84,23 @@ pub(crate) fn point_radiance(
     g: &Gather,
     bounces: BounceRange,
     tally: Option<(&Tally, f32)>,
-) -> Rgb {
+) -> Estimate {
     let phase = medium.phase();
     let inv_r2 = 1.0 / (g.radius * g.radius);
-    let mut sum = Rgb::ZERO;
+    let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
     let sigma_s = medium.sigma_s(x);
     let norm = inv_r2 / g.radius * g.inv_paths;
     grid.query_slots(x, g.radius, |ph, slot, d2| {
         if ph.medium as u32 == id && bounces.contains(ph.bounces) {
-            let term = ph.beta * (phase.eval(ph.d, -w) * g.kernel.eval(d2 * inv_r2, 3));
+            let (k, k_inner) = g.kernel.eval_pair(d2 * inv_r2, 3);
+            let weight = ph.beta * phase.eval(ph.d, -w);
+            let term = weight * k;
             sum += term;
+            inner += weight * k_inner;
             if let Some((tally, scale)) = tally {
                 tally.add(slot, scale * norm * luminance(sigma_s * term));
             }
         }
     });
-    sigma_s * sum * norm
+    Estimate::from_radii(sigma_s * sum * norm, sigma_s * inner * norm)
 }

@@ -11,6 +11,7 @@ use super::direct::surface_direct;
 use super::single::single_scattering;
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
+use crate::estimate::Estimate;
 use crate::estimate::surface::{Gather, surface_radiance};
 use crate::estimate::volume::{EyeSegment, beam_radiance, point_radiance};
 use crate::math::{Rgb, luminance};
@@ -99,28 +100,30 @@ fn timed<T>(f: impl FnOnce() -> T) -> T {
     f()
 }
 
-/// Radiance along one eye path for pixel (x, y).
-fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32) -> Rgb {
+/// Radiance along one eye path for pixel (x, y), with the kernel bias of its photon estimates.
+fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32) -> Estimate {
     trace_eye(scene, maps, pass, x, y, |p, n, f, beta, bounces| {
         let tally = maps.marks.map(|m| (&m.surface, luminance(beta)));
         beta * surface_radiance(maps.surface, p, n, f, &pass.surface, bounces, tally)
     })
 }
 
-/// Follows the eye path of pixel (x, y) and returns the radiance it collects, except that at the
-/// first diffuse surface (position p, normal n on the viewer's side, BRDF value f, path throughput
-/// β) the contribution is whatever `at_diffuse(p, n, f, β, bounces)` returns, `bounces` being the
-/// photons' events the bounce limit leaves room for.
+/// Follows the eye path of pixel (x, y) and returns the radiance it collects, and the kernel bias
+/// of its volume estimates and of what `at_diffuse` returns: at the first diffuse surface
+/// (position p, normal n on the viewer's side, BRDF value f, path throughput β) the contribution
+/// is whatever `at_diffuse(p, n, f, β, bounces)` returns, `bounces` being the photons' events the
+/// bounce limit leaves room for.
 pub(crate) fn trace_eye(
     scene: &Scene,
     maps: &Maps,
     pass: &CameraPass,
     x: u32,
     y: u32,
-    at_diffuse: impl FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb,
-) -> Rgb {
-    let mut visitor = PhotonEye { maps, pass, at_diffuse };
-    walk_eye(scene, pass.seed, pass.iteration, [x, y], pass.max_bounces, &mut visitor)
+    at_diffuse: impl FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate,
+) -> Estimate {
+    let mut visitor = PhotonEye { maps, pass, at_diffuse, bias: Rgb::ZERO };
+    let value = walk_eye(scene, pass.seed, pass.iteration, [x, y], pass.max_bounces, &mut visitor);
+    Estimate { value, bias: visitor.bias }
 }
 
 /// The photon mapper's eye path: volume estimates along segments in media, emitters counted in
@@ -129,6 +132,16 @@ struct PhotonEye<'a, F> {
     maps: &'a Maps<'a>,
     pass: &'a CameraPass,
     at_diffuse: F,
+    /// The kernel bias of the path's photon estimates, throughput included.
+    bias: Rgb,
+}
+
+impl<F> PhotonEye<'_, F> {
+    /// Adds a photon estimate, weighted by the path's throughput, to the path.
+    fn add(&mut self, path: &mut EyePath, e: Estimate) {
+        path.l += path.beta * e.value;
+        self.bias += path.beta * e.bias;
+    }
 }
 
 impl<F> PhotonEye<'_, F> {
@@ -166,7 +179,7 @@ impl<F> PhotonEye<'_, F> {
     }
 }
 
-impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEye<'_, F> {
+impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for PhotonEye<'_, F> {
     fn medium(&mut self, path: &mut EyePath, m: &Medium, id: u32, t_max: f32) -> Next {
         let (o, d) = (path.o, path.d);
         match self.pass.estimate {
@@ -180,8 +193,9 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEy
                 let (beams, volume, bounces) =
                     (self.maps.volume_beams, &self.pass.volume, self.bounces(path));
                 let tally = self.maps.marks.map(|t| (&t.volume, luminance(path.beta)));
-                path.l += path.beta
-                    * timed(|| beam_radiance(beams, m, id, &segment, &tr, volume, bounces, tally));
+                let e =
+                    timed(|| beam_radiance(beams, m, id, &segment, &tr, volume, bounces, tally));
+                self.add(path, e);
                 path.beta *= tr.at(t_max);
                 Next::Continue
             }
@@ -200,8 +214,8 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEy
                 let (points, volume, bounces) =
                     (self.maps.volume_points, &self.pass.volume, self.bounces(path));
                 let tally = self.maps.marks.map(|t| (&t.volume, luminance(path.beta)));
-                path.l += path.beta
-                    * timed(|| point_radiance(points, m, id, x, d, volume, bounces, tally));
+                let e = timed(|| point_radiance(points, m, id, x, d, volume, bounces, tally));
+                self.add(path, e);
                 Next::Stop
             }
         }
@@ -221,12 +235,14 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Rgb> EyeVisitor for PhotonEy
                 path.beta * surface_direct(scene, lights, hit, wo, material, medium, &mut path.s);
         }
         let bounces = self.bounces(path);
-        path.l += (self.at_diffuse)(hit.p, n, material.diffuse_f(), path.beta, bounces);
+        let e = (self.at_diffuse)(hit.p, n, material.diffuse_f(), path.beta, bounces);
+        path.l += e.value;
+        self.bias += e.bias;
         Next::Stop
     }
 }
 
-/// Renders one iteration image into `image` (row-major). Returns `false` if `stop` was raised
+/// Renders one iteration into `frame` (row-major). Returns `false` if `stop` was raised
 /// before it finished. Non-finite samples are replaced by black and counted in `nonfinite`.
 pub(crate) fn render_pass(
     scene: &Scene,
@@ -234,10 +250,10 @@ pub(crate) fn render_pass(
     pass: &CameraPass,
     stop: &AtomicBool,
     nonfinite: &AtomicU64,
-    image: &mut [Rgb],
+    frame: &mut super::Frame,
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    super::render_rows(image, width, stop, nonfinite, |x, y| {
+    super::render_rows(frame, width, stop, nonfinite, |x, y| {
         pixel_radiance(scene, maps, pass, x, y)
     })
 }

@@ -16,6 +16,7 @@ pub(crate) mod single;
 pub(crate) mod walk;
 
 use crate::error::{Error, Result};
+use crate::estimate::Estimate;
 use crate::film::Film;
 use crate::math::Rgb;
 use crate::progress::StepTimes;
@@ -26,6 +27,22 @@ use path::PathTracer;
 use ppm::PhotonMapper;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// One iteration's image and the kernel bias of its photon estimates (zero for the path tracer),
+/// row-major, top row first.
+pub(crate) struct Frame {
+    /// Radiance.
+    pub value: Vec<Rgb>,
+    /// The estimated kernel bias of `value` ([`Estimate`]).
+    pub bias: Vec<Rgb>,
+}
+
+impl Frame {
+    /// A black frame of `pixels` pixels.
+    pub(crate) fn new(pixels: usize) -> Self {
+        Frame { value: vec![Rgb::ZERO; pixels], bias: vec![Rgb::ZERO; pixels] }
+    }
+}
 
 /// One rendering method and its state between iterations.
 pub(crate) enum Method {
@@ -56,7 +73,7 @@ impl Method {
         })
     }
 
-    /// Renders iteration `i` (1-based) into `image`. Returns the time each step took, or `None`
+    /// Renders iteration `i` (1-based) into `frame`. Returns the time each step took, or `None`
     /// if `stop` was raised before it finished (the image and the method's state are then
     /// unusable for this iteration, which is discarded).
     pub(crate) fn iterate(
@@ -65,12 +82,21 @@ impl Method {
         i: u64,
         stop: &AtomicBool,
         nonfinite: &AtomicU64,
-        image: &mut [Rgb],
+        frame: &mut Frame,
     ) -> Option<StepTimes> {
         match self {
-            Method::PhotonMapping(m) => m.iterate(scene, i, stop, nonfinite, image),
-            Method::Original(m) => m.iterate(scene, i, stop, nonfinite, image),
-            Method::Path(m) => m.iterate(scene, i, stop, nonfinite, image),
+            Method::PhotonMapping(m) => m.iterate(scene, i, stop, nonfinite, frame),
+            Method::Original(m) => m.iterate(scene, i, stop, nonfinite, frame),
+            Method::Path(m) => m.iterate(scene, i, stop, nonfinite, frame),
+        }
+    }
+
+    /// An empty film for this method's iterations: with the kernel-bias sums for photon
+    /// mapping (the path tracer has no kernel).
+    pub(crate) fn film(&self, width: u32, height: u32) -> Film {
+        match self {
+            Method::Path(_) => Film::new(width, height),
+            _ => Film::with_bias(width, height),
         }
     }
 
@@ -106,12 +132,12 @@ impl Method {
         }
     }
 
-    /// Adds a finished iteration's image to the film.
-    pub(crate) fn accumulate(&self, film: &mut Film, image: &[Rgb]) {
+    /// Adds a finished iteration's frame to the film.
+    pub(crate) fn accumulate(&self, film: &mut Film, frame: &Frame) {
         match self {
             // The original PPM's image is its running estimate, not a term of a mean.
-            Method::Original(_) => film.replace(image),
-            _ => film.add(image),
+            Method::Original(_) => film.replace(&frame.value, Some(&frame.bias)),
+            _ => film.add_with_bias(&frame.value, &frame.bias),
         }
     }
 
@@ -144,27 +170,28 @@ impl Method {
     }
 }
 
-/// Fills `image` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over rows.
-/// Non-finite samples become black and are counted in `nonfinite`. Returns `false` if `stop` was
-/// raised before every row was done.
+/// Fills `frame` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over rows.
+/// Non-finite samples (value or bias) become black without bias and are counted in `nonfinite`.
+/// Returns `false` if `stop` was raised before every row was done.
 pub(crate) fn render_rows(
-    image: &mut [Rgb],
+    frame: &mut Frame,
     width: usize,
     stop: &AtomicBool,
     nonfinite: &AtomicU64,
-    radiance: impl Fn(u32, u32) -> Rgb + Sync,
+    radiance: impl Fn(u32, u32) -> Estimate + Sync,
 ) -> bool {
-    image.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+    let rows = frame.value.par_chunks_mut(width).zip(frame.bias.par_chunks_mut(width));
+    rows.enumerate().for_each(|(y, (row, bias))| {
         if stop.load(Ordering::Relaxed) {
             return;
         }
-        for (x, px) in row.iter_mut().enumerate() {
-            let l = radiance(x as u32, y as u32);
-            *px = if l.is_finite() {
-                l
+        for (x, (px, b)) in row.iter_mut().zip(bias).enumerate() {
+            let e = radiance(x as u32, y as u32);
+            (*px, *b) = if e.value.is_finite() && e.bias.is_finite() {
+                (e.value, e.bias)
             } else {
                 nonfinite.fetch_add(1, Ordering::Relaxed);
-                Rgb::ZERO
+                (Rgb::ZERO, Rgb::ZERO)
             };
         }
     });

@@ -9,6 +9,8 @@
 //!
 //! so the radius shrinks only where photons arrive. The pixel's radiance is
 //! τ / (π R² · light paths so far), plus the emission its eye paths saw directly (averaged).
+//! A second flux τ_in, of the photons within R/√2 and updated by the same rule, gives the
+//! estimate at half the area and so the kernel bias 2 (L − L_in) (docs/theory.md).
 //!
 //! The eye path is re-jittered every iteration, as in stochastic PPM (Hachisuka & Jensen 2009),
 //! which uses the same update: with one fixed hit point per pixel the method would converge to a
@@ -18,6 +20,7 @@
 
 use super::camera::{CameraPass, Maps, trace_eye};
 use super::ppm::{PhotonMapper, lap};
+use crate::estimate::Estimate;
 use crate::estimate::surface::NORMAL_COS;
 use crate::math::Rgb;
 use crate::photon::Photon;
@@ -78,7 +81,7 @@ impl OriginalPpm {
         i: u64,
         stop: &AtomicBool,
         nonfinite: &AtomicU64,
-        image: &mut [Rgb],
+        frame: &mut super::Frame,
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
         let r = self.stats.rms_radius();
@@ -95,7 +98,7 @@ impl OriginalPpm {
         self.next.pixels.copy_from_slice(&self.stats.pixels);
         let paths = i * self.mapper.paths();
         let maps = self.mapper.maps();
-        if !gather_pass(scene, &maps, &pass, &mut self.next, paths, stop, nonfinite, image) {
+        if !gather_pass(scene, &maps, &pass, &mut self.next, paths, stop, nonfinite, frame) {
             return None;
         }
         std::mem::swap(&mut self.stats, &mut self.next);
@@ -106,14 +109,15 @@ impl OriginalPpm {
 }
 
 impl OriginalPpm {
-    /// The per-pixel statistics as bytes: per pixel R², N, τ (3) and the direct sum (3), as
-    /// little-endian f64, then the RMS radius reported last.
+    /// The per-pixel statistics as bytes: per pixel R², N, τ (3), the direct sum (3) and τ_in
+    /// (3), as little-endian f64, then the RMS radius reported last.
     pub(crate) fn save_state(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.stats.pixels.len() * 64 + 8);
+        let mut out = Vec::with_capacity(self.stats.pixels.len() * STATE_BYTES + 8);
         for p in &self.stats.pixels {
             for v in [p.radius2, p.photons, p.flux.x, p.flux.y, p.flux.z]
                 .into_iter()
                 .chain([p.direct.x, p.direct.y, p.direct.z])
+                .chain([p.flux_inner.x, p.flux_inner.y, p.flux_inner.z])
             {
                 out.extend_from_slice(&v.to_le_bytes());
             }
@@ -125,27 +129,32 @@ impl OriginalPpm {
     /// Restores statistics saved by [`Self::save_state`] for an image of the same size.
     pub(crate) fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         let n = self.stats.pixels.len();
-        if bytes.len() != n * 64 + 8 {
+        if bytes.len() != n * STATE_BYTES + 8 {
             return Err(format!(
                 "the partial render's original-PPM statistics hold {} bytes, not {} for {n} pixels",
                 bytes.len(),
-                n * 64 + 8
+                n * STATE_BYTES + 8
             ));
         }
         let f =
             |k: usize| f64::from_le_bytes(bytes[8 * k..8 * k + 8].try_into().unwrap_or_default());
+        let per = STATE_BYTES / 8;
         for (i, p) in self.stats.pixels.iter_mut().enumerate() {
-            let b = 8 * i;
+            let b = per * i;
             p.radius2 = f(b);
             p.photons = f(b + 1);
             p.flux = DVec3::new(f(b + 2), f(b + 3), f(b + 4));
             p.direct = DVec3::new(f(b + 5), f(b + 6), f(b + 7));
+            p.flux_inner = DVec3::new(f(b + 8), f(b + 9), f(b + 10));
         }
-        self.radius = f(8 * n);
+        self.radius = f(per * n);
         self.next.pixels.clone_from(&self.stats.pixels);
         Ok(())
     }
 }
+
+/// Bytes of one pixel's saved statistics (11 f64).
+const STATE_BYTES: usize = 88;
 
 /// One pixel's statistics.
 #[derive(Clone, Copy, Debug)]
@@ -158,6 +167,8 @@ pub(crate) struct PixelStats {
     pub flux: DVec3,
     /// Sum of the emission seen directly by the pixel's eye paths.
     pub direct: DVec3,
+    /// Accumulated flux τ_in of the photons within R/√2 (the bias estimate's).
+    pub flux_inner: DVec3,
 }
 
 /// The per-pixel state of an original-PPM render.
@@ -171,8 +182,14 @@ pub(crate) struct OriginalState {
 impl OriginalState {
     /// Every pixel starts at radius `r1`, with no photons and no flux.
     pub fn new(pixels: usize, r1: f64, alpha: f64) -> Self {
-        let p =
-            PixelStats { radius2: r1 * r1, photons: 0.0, flux: DVec3::ZERO, direct: DVec3::ZERO };
+        let zero = DVec3::ZERO;
+        let p = PixelStats {
+            radius2: r1 * r1,
+            photons: 0.0,
+            flux: zero,
+            direct: zero,
+            flux_inner: zero,
+        };
         Self { pixels: vec![p; pixels], alpha }
     }
 
@@ -189,8 +206,8 @@ impl OriginalState {
 }
 
 /// Gathers photons at every pixel's hit point for iteration `pass.iteration`, updates the
-/// statistics and writes the current estimate (after `iterations` photon passes of `paths` light
-/// paths each) into `image`. Returns `false` if `stop` was raised before it finished; the state is
+/// statistics and writes the current estimate and its kernel bias (after `iterations` photon
+/// passes of `paths` light paths each) into `frame`. Returns `false` if `stop` was raised before it finished; the state is
 /// then partly updated and must be discarded.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn gather_pass(
@@ -201,35 +218,42 @@ pub(crate) fn gather_pass(
     paths_so_far: u64,
     stop: &AtomicBool,
     nonfinite: &AtomicU64,
-    image: &mut [Rgb],
+    frame: &mut super::Frame,
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
     let alpha = state.alpha;
     let iterations = pass.iteration as f64;
     let surface: &PhotonGrid<Photon> = maps.surface;
-    state.pixels.par_chunks_mut(width).zip(image.par_chunks_mut(width)).enumerate().for_each(
-        |(y, (stats, row))| {
+    let out = frame.value.par_chunks_mut(width).zip(frame.bias.par_chunks_mut(width));
+    state.pixels.par_chunks_mut(width).zip(out).enumerate().for_each(
+        |(y, (stats, (row, bias)))| {
             if stop.load(Ordering::Relaxed) {
                 return;
             }
-            for (x, (st, px)) in stats.iter_mut().zip(row.iter_mut()).enumerate() {
+            for (x, (st, (px, b))) in stats.iter_mut().zip(row.iter_mut().zip(bias)).enumerate() {
                 let r2 = st.radius2;
                 let r = r2.sqrt() as f32;
-                let (mut m, mut phi) = (0u64, DVec3::ZERO);
+                let inner2 = (r2 / 2.0) as f32;
+                let (mut m, mut phi, mut phi_inner) = (0u64, DVec3::ZERO, DVec3::ZERO);
                 let direct =
                     trace_eye(scene, maps, pass, x as u32, y as u32, |p, n, f, beta, b| {
-                        let mut sum = Rgb::ZERO;
-                        surface.query(p, r, |ph, _| {
+                        let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
+                        surface.query(p, r, |ph, d2| {
                             if ph.n.dot(n) > NORMAL_COS && b.contains(ph.bounces) {
                                 m += 1;
                                 sum += ph.beta;
+                                if d2 < inner2 {
+                                    inner += ph.beta;
+                                }
                             }
                         });
                         phi = (beta * f * sum).as_dvec3();
-                        Rgb::ZERO
-                    });
+                        phi_inner = (beta * f * inner).as_dvec3();
+                        Estimate::ZERO
+                    })
+                    .value;
                 let direct = direct.as_dvec3();
-                if direct.is_finite() && phi.is_finite() {
+                if direct.is_finite() && phi.is_finite() && phi_inner.is_finite() {
                     st.direct += direct;
                     if m > 0 {
                         let m = m as f64;
@@ -237,12 +261,15 @@ pub(crate) fn gather_pass(
                         st.photons += alpha * m;
                         st.radius2 *= ratio;
                         st.flux = (st.flux + phi) * ratio;
+                        st.flux_inner = (st.flux_inner + phi_inner) * ratio;
                     }
                 } else {
                     nonfinite.fetch_add(1, Ordering::Relaxed);
                 }
-                let l = st.direct / iterations
-                    + st.flux / (std::f64::consts::PI * st.radius2 * paths_so_far as f64);
+                let area_paths = std::f64::consts::PI * st.radius2 * paths_so_far as f64;
+                let l = st.direct / iterations + st.flux / area_paths;
+                // L_r − L_{r/√2} = (τ − 2 τ_in) / (π R² · paths); the bias is twice it.
+                *b = (2.0 * (st.flux - 2.0 * st.flux_inner) / area_paths).as_vec3();
                 *px = l.as_vec3();
             }
         },

@@ -78,11 +78,11 @@ impl PathTracer {
         i: u64,
         stop: &AtomicBool,
         nonfinite: &AtomicU64,
-        image: &mut [Rgb],
+        frame: &mut super::Frame,
     ) -> Option<StepTimes> {
         let clock = Instant::now();
         let pass = PathPass { seed: self.seed, iteration: i, max_bounces: self.max_bounces };
-        if !render_pass(scene, &self.lights, &pass, stop, nonfinite, image) {
+        if !render_pass(scene, &self.lights, &pass, stop, nonfinite, frame) {
             return None;
         }
         Some(StepTimes { camera: super::ppm::lap(clock), ..StepTimes::default() })
@@ -223,17 +223,18 @@ fn roulette(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
     true
 }
 
-/// Renders one path-traced iteration image into `image`. Returns `false` if `stop` was raised.
+/// Renders one path-traced iteration into `frame` (without kernel bias). Returns `false` if
+/// `stop` was raised.
 fn render_pass(
     scene: &Scene,
     lights: &LightSampler,
     pass: &PathPass,
     stop: &AtomicBool,
     nonfinite: &AtomicU64,
-    image: &mut [Rgb],
+    frame: &mut super::Frame,
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    super::render_rows(image, width, stop, nonfinite, |x, y| {
-        pixel_radiance(scene, lights, pass, x, y)
+    super::render_rows(frame, width, stop, nonfinite, |x, y| {
+        crate::estimate::Estimate::exact(pixel_radiance(scene, lights, pass, x, y))
     })
 }

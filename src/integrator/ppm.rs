@@ -8,7 +8,6 @@ use super::camera::{CameraPass, Maps, render_pass};
 use crate::estimate::kernel::Kernel;
 use crate::estimate::radius::radius;
 use crate::estimate::surface::Gather;
-use crate::math::Rgb;
 use crate::photon::beam::{BeamMap, Thinning};
 use crate::photon::guide::{EmissionGuide, LightUse, PilotPath};
 use crate::photon::map::PhotonGrid;
@@ -122,7 +121,7 @@ impl PhotonMapper {
         i: u64,
         stop: &AtomicBool,
         nonfinite: &AtomicU64,
-        image: &mut [Rgb],
+        frame: &mut super::Frame,
     ) -> Option<StepTimes> {
         let (r, r_vol) = self.radii(i);
         let mut times = StepTimes::default();
@@ -144,7 +143,7 @@ impl PhotonMapper {
         times.volume_map = lap(clock);
         let clock = Instant::now();
         let pass = self.camera_pass(i, r, r_vol);
-        if !render_pass(scene, &self.maps(), &pass, stop, nonfinite, image) {
+        if !render_pass(scene, &self.maps(), &pass, stop, nonfinite, frame) {
             return None;
         }
         times.camera = lap(clock);
@@ -257,9 +256,9 @@ impl PhotonMapper {
         let pass = self.camera_pass(iteration, r, r_vol);
         let maps = Maps { marks: Some(&marks), ..self.maps() };
         let [w, h] = scene.camera.resolution;
-        let mut image = vec![Rgb::ZERO; w as usize * h as usize];
+        let mut frame = super::Frame::new(w as usize * h as usize);
         let nonfinite = AtomicU64::new(0);
-        render_pass(scene, &maps, &pass, stop, &nonfinite, &mut image).then_some(marks)
+        render_pass(scene, &maps, &pass, stop, &nonfinite, &mut frame).then_some(marks)
     }
 
     fn set_tracking(&mut self, on: bool) {

@@ -50,6 +50,9 @@ pub struct Reference {
     /// The file's `variance` layer whatever rendered it (every haze render of two or more
     /// iterations writes one), for per-tile comparisons ([`crate::lab::tiles`]).
     pub variance_layer: Option<Vec<[f32; 3]>>,
+    /// The file's kernel-bias layer (photon-mapping references; `bias`), which the coverage of
+    /// a render's error bound counts ([`self_estimate`]).
+    pub bias_layer: Option<Vec<[f32; 3]>>,
     /// How it was made (the `haze:reference` attribute), if it says.
     pub description: Option<String>,
     /// The integrator and seed that rendered it (`haze:render.integrator` and `haze:render.seed`,
@@ -70,6 +73,7 @@ impl Reference {
                 .clone()
                 .filter(|_| image.info.settings.integrator == Integrator::Path),
             variance_layer: image.variance.clone(),
+            bias_layer: image.bias.clone(),
             description: Some(image.reference_description()),
             made_by: Some((image.info.settings.integrator, image.info.settings.seed)),
         }
@@ -119,6 +123,13 @@ impl Reference {
             }
         }
         let variance = variance_layer.map(|l| l.channel_data.pixels.1.clone());
+        let bias_layer = image
+            .layer_data
+            .iter()
+            .find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n == "bias"))
+            .filter(|l| (l.size.width(), l.size.height()) == (w, h))
+            .map(|l| l.channel_data.pixels.1.clone())
+            .filter(|b| b.iter().flatten().all(|c| c.is_finite()));
         for (what, data) in [("pixel", Some(&pixels)), ("variance", variance.as_ref())] {
             if let Some(i) = data
                 .and_then(|d| d.iter().position(|p| p.iter().any(|c| !c.is_finite() || *c < 0.0)))
@@ -159,6 +170,7 @@ impl Reference {
             pixels,
             variance,
             variance_layer,
+            bias_layer,
             description,
             made_by,
         })
@@ -218,6 +230,70 @@ pub fn measure(pixels: &[[f32; 3]], reference: &Reference, region: Option<Region
     ErrorMeasure { mse: se / n, rel_mse: rel / n, reference_mean: mean }
 }
 
+/// What a render says about its own error over a region, to be checked against what a
+/// reference measures (docs/error.md, "Checking the estimates").
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SelfEstimate {
+    /// The render's estimate of its MSE: the mean over the region's pixels and channels of
+    /// v + b̂² − w (v the variance of the mean, b̂ the kernel-bias estimate, w its variance; 0
+    /// without a kernel). Unclamped, so that averages over runs stay unbiased.
+    pub mse: f64,
+    /// The share of the region's pixel channels whose measured error |x − ref| lies within the
+    /// render's stated 95 % bound 1.707 (|b̂| + |b̂_ref|) + t √(v + w + v_ref), t the two-sided
+    /// 95 % Student-t quantile for the iterations, b̂_ref and v_ref the reference's `bias` and
+    /// `variance` layers (zero where it has none).
+    pub coverage: f64,
+}
+
+impl SelfEstimate {
+    /// The estimated RMSE relative to `reference_mean`.
+    pub fn rel_rmse(&self, reference_mean: f64) -> f64 {
+        self.mse.max(0.0).sqrt() / reference_mean
+    }
+}
+
+/// The factor between the kernel-bias estimate and a bias of first order in r (boundaries):
+/// 1 / (2 (1 − 1/√2)) (docs/theory.md); the bound a render states is this times |b̂|.
+pub const FIRST_ORDER_BIAS: f64 = 1.707_106_781_186_547_5;
+
+/// The self-estimate of `film` over `region` against `reference` (same size); `None` before the
+/// second iteration.
+pub fn self_estimate(
+    film: &crate::film::Film,
+    reference: &Reference,
+    region: Option<Region>,
+) -> Option<SelfEstimate> {
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    let n = film.iterations();
+    if n < 2 {
+        return None;
+    }
+    let t = StudentsT::new(0.0, 1.0, (n - 1) as f64).ok()?.inverse_cdf(0.975);
+    let (mean, v) = (film.mean(), film.variance_of_mean());
+    let (b, w) = (film.bias(), film.bias_variance());
+    let w_ = reference.width as usize;
+    let r = region.unwrap_or(Region { x0: 0, y0: 0, x1: reference.width, y1: reference.height });
+    let (mut mse, mut covered, mut count) = (0.0f64, 0u64, 0u64);
+    for y in r.y0 as usize..r.y1 as usize {
+        for x in r.x0 as usize..r.x1 as usize {
+            let i = y * w_ + x;
+            for c in 0..3 {
+                let at = |l: &Option<Vec<[f32; 3]>>| l.as_ref().map_or(0.0, |l| l[i][c] as f64);
+                let (bi, wi, vi) = (at(&b), at(&w), v[i][c] as f64);
+                let (b_ref, v_ref) = (at(&reference.bias_layer), at(&reference.variance_layer));
+                mse += vi + bi * bi - wi;
+                let bound =
+                    FIRST_ORDER_BIAS * (bi.abs() + b_ref.abs()) + t * (vi + wi + v_ref).sqrt();
+                let error = (mean[i][c] as f64 - reference.pixels[i][c] as f64).abs();
+                covered += (error <= bound) as u64;
+                count += 1;
+            }
+        }
+    }
+    (count > 0)
+        .then(|| SelfEstimate { mse: mse / count as f64, coverage: covered as f64 / count as f64 })
+}
+
 /// Iteration counts at which to measure: ten per decade, rounded and deduplicated, up to `max`.
 pub fn checkpoints(max: u64) -> Vec<u64> {
     let mut out: Vec<u64> = Vec::new();
@@ -257,6 +333,9 @@ pub struct Sample {
     pub seconds: f64,
     /// The errors.
     pub error: ErrorMeasure,
+    /// What the render said about its error (probabilistic progressions from the second
+    /// iteration on).
+    pub estimate: Option<SelfEstimate>,
 }
 
 /// How long and how often to render.
@@ -303,6 +382,9 @@ pub fn run(
                 if st.iteration() == marks[next] {
                     next += 1;
                     let error = measure(&st.film.mean(), reference, plan.region);
+                    let estimate = (st.info.settings.progression == Progression::Probabilistic)
+                        .then(|| self_estimate(st.film, reference, plan.region))
+                        .flatten();
                     samples.push(Sample {
                         series: si,
                         run,
@@ -310,6 +392,7 @@ pub fn run(
                         light_paths: st.info.light_paths,
                         seconds,
                         error,
+                        estimate,
                     });
                 }
                 progress(si, run, seconds);
@@ -378,6 +461,8 @@ pub struct Point {
     pub light_paths: u64,
     /// The errors, squared errors averaged over the runs.
     pub error: ErrorMeasure,
+    /// The renders' self-estimates averaged over the runs (if every run had one).
+    pub estimate: Option<SelfEstimate>,
 }
 
 /// A series' convergence, summarised.
@@ -443,7 +528,13 @@ pub fn summarize(scene: &Scene, series: &[Series], samples: &[Sample], runs: u32
                     break;
                 }
                 let k = at.len() as f64;
+                let estimates: Option<Vec<SelfEstimate>> = at.iter().map(|x| x.estimate).collect();
+                let estimate = estimates.map(|e| SelfEstimate {
+                    mse: e.iter().map(|x| x.mse).sum::<f64>() / k,
+                    coverage: e.iter().map(|x| x.coverage).sum::<f64>() / k,
+                });
                 points.push(Point {
+                    estimate,
                     iterations: n,
                     seconds: at.iter().map(|x| x.seconds).sum::<f64>() / k,
                     light_paths: at[0].light_paths,
@@ -540,6 +631,46 @@ pub fn chart(title: &str, summaries: &[Summary]) -> Chart {
     }
 }
 
+/// The chart of each series' estimated relative RMSE (what the renders said of themselves)
+/// against the measured one, log-log, with the diagonal where they agree dashed; `None` if no
+/// series has estimates.
+pub fn estimate_chart(title: &str, summaries: &[Summary]) -> Option<Chart> {
+    let mut lines = Vec::new();
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for (i, s) in summaries.iter().enumerate() {
+        let points: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .filter_map(|p| {
+                let e = p.estimate?;
+                let pair = (p.error.rel_rmse(), e.rel_rmse(p.error.reference_mean));
+                (pair.0 > 0.0 && pair.1 > 0.0).then_some(pair)
+            })
+            .collect();
+        for &(x, y) in &points {
+            (lo, hi) = (lo.min(x.min(y)), hi.max(x.max(y)));
+        }
+        if !points.is_empty() {
+            lines.push(Line { label: s.label.clone(), points, dashed: false, color: i });
+        }
+    }
+    if lines.is_empty() {
+        return None;
+    }
+    lines.push(Line {
+        label: "estimate = measured".into(),
+        points: vec![(lo, lo), (hi, hi)],
+        dashed: true,
+        color: summaries.len(),
+    });
+    Some(Chart {
+        title: title.to_string(),
+        x_label: "measured relative RMSE".into(),
+        y_label: "estimated relative RMSE".into(),
+        lines,
+    })
+}
+
 /// The samples as CSV: one row per run and checkpoint.
 pub fn csv(series: &[Series], samples: &[Sample]) -> String {
     let mut w = csv::Writer::from_writer(Vec::new());
@@ -553,6 +684,8 @@ pub fn csv(series: &[Series], samples: &[Sample]) -> String {
         "rmse",
         "rel_rmse",
         "rel_mse",
+        "estimated_rel_rmse",
+        "coverage",
     ];
     let _ = w.write_record(header);
     for s in samples {
@@ -567,15 +700,19 @@ pub fn csv(series: &[Series], samples: &[Sample]) -> String {
             format!("{:.6e}", s.error.rmse()),
             format!("{:.6e}", s.error.rel_rmse()),
             format!("{:.6e}", s.error.rel_mse),
+            s.estimate
+                .map_or(String::new(), |e| format!("{:.6e}", e.rel_rmse(s.error.reference_mean))),
+            s.estimate.map_or(String::new(), |e| format!("{:.4}", e.coverage)),
         ]);
     }
     String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
-/// A Markdown table of the summaries: slopes and seconds to 5% and 1% relative RMSE.
+/// A Markdown table of the summaries: slopes and seconds to 5% and 1% relative RMSE, and at the
+/// last point the render's own estimate of its relative RMSE and the coverage of its 95 % bound.
 pub fn markdown(summaries: &[Summary]) -> String {
     let mut out = String::from(
-        "| series | iterations | seconds | rel. RMSE | slope (fit) | slope (theory) | s to 5% | s to 1% |\n|---|---|---|---|---|---|---|---|\n",
+        "| series | iterations | seconds | rel. RMSE | estimated | coverage | slope (fit) | slope (theory) | s to 5% | s to 1% |\n|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for s in summaries {
         let last = s.points.last();
@@ -584,12 +721,17 @@ pub fn markdown(summaries: &[Summary]) -> String {
             (None, Some(v)) => format!("not reached (fit: ~{})", round_seconds(v)),
             (None, None) => "not reached".into(),
         };
+        let estimate = last.and_then(|p| p.estimate.map(|e| (p, e)));
         out.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {:.2} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {:.2} | {} | {} |\n",
             s.label.replace('|', "/"),
             last.map_or(0, |p| p.iterations),
             last.map_or("-".into(), |p| format!("{:.1}", p.seconds)),
             last.map_or("-".into(), |p| format!("{:.2}%", 100.0 * p.error.rel_rmse())),
+            estimate.map_or("-".into(), |(p, e)| {
+                format!("{:.2}%", 100.0 * e.rel_rmse(p.error.reference_mean))
+            }),
+            estimate.map_or("-".into(), |(_, e)| format!("{:.1}%", 100.0 * e.coverage)),
             slope(s.fitted_slope),
             s.theory_slope,
             t(0.05),
@@ -711,6 +853,32 @@ mod tests {
         assert!("1,2,3".parse::<Region>().is_err());
     }
 
+    /// Two iterations of 1 and 3 with bias estimates 0.1 and 0.3: v = 1, b̂ = 0.2, w = 0.01, so
+    /// the estimated MSE is 1 + 0.04 − 0.01 and the bound 1.707 · 0.2 + t₁ √1.01 = 13.11 (t₁ the
+    /// 97.5 % quantile of Student's t with one degree of freedom, 12.706): an error of 13.0 is
+    /// covered, one of 13.2 is not.
+    #[test]
+    fn self_estimates_state_the_mse_and_cover_within_the_bound() {
+        let mut film = crate::film::Film::with_bias(1, 1);
+        film.add_with_bias(&[glam::Vec3::splat(1.0)], &[glam::Vec3::splat(0.1)]);
+        film.add_with_bias(&[glam::Vec3::splat(3.0)], &[glam::Vec3::splat(0.3)]);
+        let reference = |v: f32| Reference {
+            width: 1,
+            height: 1,
+            pixels: vec![[v; 3]],
+            variance: None,
+            variance_layer: None,
+            bias_layer: None,
+            description: None,
+            made_by: None,
+        };
+        let e = self_estimate(&film, &reference(2.0 + 13.0), None).unwrap();
+        assert!((e.mse - 1.03).abs() < 1e-6, "{e:?}");
+        assert_eq!(e.coverage, 1.0);
+        assert_eq!(self_estimate(&film, &reference(2.0 + 13.2), None).unwrap().coverage, 0.0);
+        assert_eq!(self_estimate(&film, &reference(2.0 - 13.2), None).unwrap().coverage, 0.0);
+    }
+
     #[test]
     fn reference_variance_is_subtracted() {
         let reference = Reference {
@@ -719,6 +887,7 @@ mod tests {
             pixels: vec![[1.0; 3]],
             variance: Some(vec![[0.01; 3]]),
             variance_layer: None,
+            bias_layer: None,
             description: None,
             made_by: None,
         };

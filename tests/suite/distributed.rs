@@ -26,6 +26,8 @@ fn check_exact(name: &str, settings: &RenderSettings) {
     let whole = run(&scene, settings, Start::At(1), 6);
     assert_eq!(whole.info.iterations, 6);
     assert!(whole.image().mean() > 0.0, "{name}: black");
+    // Photon films carry the kernel-bias sums, which merge and resume exactly with the rest.
+    assert_eq!(whole.film.has_bias(), settings.integrator != Integrator::Path, "{name}");
     for split in [&[(1, 2), (3, 6)][..], &[(1, 1), (2, 3), (4, 6)], &[(1, 5), (6, 6)]] {
         let mut parts: Vec<Partial> =
             split.iter().map(|&(a, b)| run(&scene, settings, Start::At(a), b)).collect();
@@ -148,6 +150,42 @@ fn partial_files_round_trip_and_refuse_corruption() {
     let f = dir.join("short.hpr");
     std::fs::write(&f, &bytes[..bytes.len() - 1]).unwrap();
     assert!(Partial::read(&f).unwrap_err().to_string().contains("truncated"));
+}
+
+/// A partial file of format 1 (before the kernel-bias sums) is still read: a path-traced
+/// partial rewritten as format 1 (version 1, no `bias_sums` key, checksum recomputed) reads back
+/// as the same film.
+#[test]
+fn partial_files_of_format_1_are_still_read() {
+    use sha2::Digest;
+    let scene = scene("cornell-box.toml");
+    let p = run(&scene, &settings(Integrator::Path, VolumeEstimate::Beam), Start::At(1), 3);
+    assert!(!p.film.has_bias());
+    let dir = temp_dir("partial-v1");
+    let path = dir.join("p.hpr");
+    p.write(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+    let header_len = u64_at(12);
+    let header = std::str::from_utf8(&bytes[20..20 + header_len]).unwrap();
+    let old_header = header.replace("bias_sums = false\n", "");
+    assert_ne!(old_header, header, "the format 2 header names `bias_sums`");
+    let rest = &bytes[20 + header_len..bytes.len() - 32]; // state length, state, sums
+    let state_len = u64_at(20 + header_len);
+    let mut digest = sha2::Sha256::new();
+    digest.update(old_header.as_bytes());
+    digest.update(&rest[8..8 + state_len]);
+    digest.update(&rest[8 + state_len..]);
+    let mut old = b"HAZEPART".to_vec();
+    old.extend_from_slice(&1u32.to_le_bytes());
+    old.extend_from_slice(&(old_header.len() as u64).to_le_bytes());
+    old.extend_from_slice(old_header.as_bytes());
+    old.extend_from_slice(rest);
+    old.extend_from_slice(&digest.finalize());
+    let v1 = dir.join("v1.hpr");
+    std::fs::write(&v1, &old).unwrap();
+    let q = Partial::read(&v1).unwrap();
+    assert_eq!(q.film, p.film);
 }
 
 fn exr_pixels(path: &std::path::Path) -> Vec<[u32; 3]> {

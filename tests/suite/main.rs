@@ -3,6 +3,7 @@
 mod analytic;
 mod api;
 mod bad_scenes;
+mod bias;
 mod cli;
 mod common;
 mod converge;

@@ -143,16 +143,59 @@ fn a_target_error_stops_the_render_where_it_is_first_reached() {
     let part = haze::render_partial(&scene, &s, haze::Start::At(1), &mut Silent, &stop).unwrap();
     let n = part.info.iterations;
     assert!(n >= haze::MIN_TARGET_ITERATIONS, "{n} iterations");
-    let e = part.film.error_estimate(0.95).unwrap();
+    let e = part.film.error_estimate(0.95, None).unwrap();
     assert!(e.upper <= target && e.relative_rmse < e.upper, "{e:?}");
     let before = RenderSettings { iterations: Some(n - 1), target_error: None, ..s.clone() };
     let earlier =
         haze::render_partial(&scene, &before, haze::Start::At(1), &mut Silent, &stop).unwrap();
-    let e = earlier.film.error_estimate(0.95).unwrap();
+    let e = earlier.film.error_estimate(0.95, None).unwrap();
     assert!(n - 1 < haze::MIN_TARGET_ITERATIONS || e.upper > target, "{e:?} after {}", n - 1);
     for bad in [0.0, 1.5, f64::NAN] {
         let err = RenderSettings { target_error: Some(bad), ..s.clone() }.validate().unwrap_err();
         assert_eq!(err.key, "target_error", "{bad}");
     }
     assert_eq!(haze::settings::parse_fraction_or_percent("2%"), Ok(0.02));
+}
+
+/// `target_region` measures the target over its pixels only: a hybrid render of cornell-box
+/// (16 × 16) with a target over the middle of the lower half (floor and boxes) stops where the
+/// error there first reaches the target (checked as above: one iteration fewer was above it),
+/// and the whole image's estimate then differs; a region outside the image is refused by name.
+#[test]
+fn a_target_region_measures_the_target_over_its_pixels() {
+    let mut scene = Scene::load(scene_path("cornell-box.toml")).unwrap();
+    scene.set_resolution([16, 16]).unwrap();
+    let region = haze::lab::converge::Region { x0: 4, y0: 8, x1: 12, y1: 16 };
+    let s = RenderSettings {
+        iterations: None,
+        time_limit: None,
+        target_error: Some(0.1),
+        target_region: Some(region),
+        photons: 2_000,
+        seed: 5,
+        ..scene.settings.clone()
+    };
+    let stop = AtomicBool::new(false);
+    let part = haze::render_partial(&scene, &s, haze::Start::At(1), &mut Silent, &stop).unwrap();
+    let n = part.info.iterations;
+    let e = part.film.error_estimate(0.95, Some(region)).unwrap();
+    assert!(e.upper <= 0.1, "{e:?} after {n}");
+    let whole = part.film.error_estimate(0.95, None).unwrap();
+    assert_ne!(whole.upper, e.upper);
+    let before = RenderSettings { iterations: Some(n - 1), target_error: None, ..s.clone() };
+    let earlier =
+        haze::render_partial(&scene, &before, haze::Start::At(1), &mut Silent, &stop).unwrap();
+    let e = earlier.film.error_estimate(0.95, Some(region)).unwrap();
+    assert!(n - 1 < haze::MIN_TARGET_ITERATIONS || e.upper > 0.1, "{e:?} after {}", n - 1);
+    let outside = haze::lab::converge::Region { x0: 0, y0: 0, x1: 17, y1: 4 };
+    let err = haze::render_partial(
+        &scene,
+        &RenderSettings { target_region: Some(outside), ..s.clone() },
+        haze::Start::At(1),
+        &mut Silent,
+        &stop,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("target_region") && err.contains("16x16"), "{err}");
 }

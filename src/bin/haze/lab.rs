@@ -55,8 +55,8 @@ pub(crate) struct ConvergeArgs {
     /// Measure over the pixels X0,Y0,X1,Y1 only (X1, Y1 exclusive).
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
     region: Option<haze::lab::converge::Region>,
-    /// Output prefix: writes PREFIX.csv, PREFIX.svg and PREFIX.md
-    /// [default: converge-SCENE-NAME].
+    /// Output prefix: writes PREFIX.csv, PREFIX.svg, PREFIX.md and PREFIX-estimate.svg (the
+    /// renders' estimated error against the measured) [default: converge-SCENE-NAME].
     #[arg(short = 'o', long, value_name = "PREFIX")]
     output: Option<PathBuf>,
     /// Chart title [default: the scene's file name].
@@ -127,12 +127,16 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
     });
     let chart = converge::chart(&title, &summaries);
     let table = converge::markdown(&summaries);
+    let estimate_chart = converge::estimate_chart(&format!("{title}: estimated error"), &summaries);
     let with = |ext: &str| PathBuf::from(format!("{}.{ext}", prefix.display()));
     interrupt.writing(|| -> Result<()> {
         let write = |p: PathBuf, data: String| haze::output::write_bytes(&p, data.as_bytes());
         write(with("csv"), converge::csv(&series, &samples))?;
         write(with("md"), table.clone())?;
         chart.write_svg(&with("svg"))?;
+        if let Some(c) = &estimate_chart {
+            c.write_svg(&PathBuf::from(format!("{}-estimate.svg", prefix.display())))?;
+        }
         Ok(())
     })?;
     println!("{table}");
@@ -144,7 +148,10 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
         time,
         pool.current_num_threads()
     );
-    println!("wrote {}.{{csv,md,svg}}", prefix.display());
+    match estimate_chart {
+        Some(_) => println!("wrote {0}.{{csv,md,svg}} and {0}-estimate.svg", prefix.display()),
+        None => println!("wrote {}.{{csv,md,svg}}", prefix.display()),
+    }
     if let Some(code) = interrupt.exit_code() {
         eprintln!(
             "interrupted by {}: the files hold the checkpoints reached so far",

@@ -214,16 +214,29 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     } else {
         String::new()
     };
-    // The noise estimate of the image (its variance layer): for photon mapping the noise only,
-    // not the kernel's bias.
-    let noise = match part.image().relative_noise(None) {
+    // The noise estimate of the image (its variance layer) and, for photon mapping, its
+    // estimated kernel bias over the image (the bias layer's mean relative to the image's).
+    let image = part.image();
+    let noise = match image.relative_noise(None) {
         Some(n) => format!(", relative noise {:.2} %", 100.0 * n),
         None => String::new(),
     };
-    let noise = match (settings.target_error, part.film.error_estimate(settings.target_confidence))
-    {
+    let noise = match image.relative_bias(None) {
+        Some((b, Some(se))) => {
+            format!("{noise}, kernel bias {:+.2} % ± {:.2} %", 100.0 * b, 100.0 * se)
+        }
+        Some((b, None)) => format!("{noise}, kernel bias {:+.2} %", 100.0 * b),
+        None => noise,
+    };
+    let noise = match (
+        settings.target_error,
+        part.film.error_estimate(settings.target_confidence, settings.target_region),
+    ) {
         (Some(target), Some(e)) => format!(
-            "{noise} (≤ {:.2} % at {:.0} % confidence; target {:.2} %{})",
+            "{noise} (error{} ≤ {:.2} % at {:.0} % confidence; target {:.2} %{})",
+            settings
+                .target_region
+                .map_or(String::new(), |r| format!(" over {},{},{},{}", r.x0, r.y0, r.x1, r.y1)),
             100.0 * e.upper,
             100.0 * e.confidence,
             100.0 * target,
