@@ -13,7 +13,7 @@
 //! that would leave it saturates and is counted ([`Film::saturated`]).
 //!
 //! **Kernel bias.** A photon-mapping film also sums, in the same way, each iteration's estimate
-//! of its kernel bias ([`crate::estimate::Estimate`]), so the bias of the mean image and that
+//! of its kernel bias (2 (L_r − L_{r/√2}), docs/theory.md), so the bias of the mean image and that
 //! estimate's own variance survive splitting, merging and resuming exactly.
 
 use crate::math::Rgb;
@@ -129,7 +129,7 @@ impl Sums {
 }
 
 /// The accumulated render: the sums of the iteration images and, for photon mapping, of their
-/// kernel-bias estimates ([`crate::estimate::Estimate`]).
+/// kernel-bias estimates (docs/theory.md, "The kernel bias of each pixel").
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     width: u32,

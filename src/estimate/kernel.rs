@@ -49,7 +49,7 @@ impl Kernel {
     }
 
     /// The kernel's values at `u2` for radius r and for the inner radius r/√2 of the bias
-    /// estimate ([`super::Estimate`]), both without the common r^−d factor: (K(u²),
+    /// estimate (`Estimate`), both without the common r^−d factor: (K(u²),
     /// 2^{d/2} K(2u²)).
     #[inline]
     pub fn eval_pair(self, u2: f32, dim: u32) -> (f32, f32) {
