@@ -129,6 +129,12 @@ impl OriginalPpm {
     /// Restores statistics saved by [`Self::save_state`] for an image of the same size.
     pub(crate) fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         let n = self.stats.pixels.len();
+        if bytes.len() == n * 64 + 8 {
+            return Err("the partial render holds original-PPM statistics of an older haze \
+                 (partial format 1, without the flux τ_in of the bias estimate): it cannot be \
+                 resumed by this one; render again"
+                .into());
+        }
         if bytes.len() != n * STATE_BYTES + 8 {
             return Err(format!(
                 "the partial render's original-PPM statistics hold {} bytes, not {} for {n} pixels",

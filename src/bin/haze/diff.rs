@@ -16,8 +16,7 @@ pub(crate) struct DiffArgs {
     b: PathBuf,
     /// Also compare the images tile by tile (tiles of N×N pixels): each tile's mean difference
     /// in standard errors from the two files' `variance` layers, failing beyond the critical
-    /// value at `--significance` over all tiles (Šidák); a photon render's `bias` layer gives
-    /// its bias allowance, 1.707 |b̂| per pixel (docs/error.md). Exit 0 if no tile fails.
+    /// value at `--significance` over all tiles (Šidák). Exit 0 if no tile fails.
     #[arg(long, value_name = "N")]
     tiles: Option<u32>,
     /// Family-wise significance of `--tiles` (the chance that two renders of the same image
@@ -26,19 +25,9 @@ pub(crate) struct DiffArgs {
     significance: f64,
 }
 
-/// The image, its noise and its bias bound as the per-tile comparison sees them.
-fn view<'a>(
-    r: &'a Reference,
-    variance: &'a [[f32; 3]],
-    bias: Option<&'a [[f32; 3]]>,
-) -> tiles::NoisyImage<'a> {
-    tiles::NoisyImage { width: r.width, height: r.height, pixels: &r.pixels, variance, bias }
-}
-
-/// The bias bound a photon render states per pixel: 1.707 |b̂| from its `bias` layer.
-fn bias_bound(r: &Reference) -> Option<Vec<[f32; 3]>> {
-    let factor = haze::lab::converge::FIRST_ORDER_BIAS as f32;
-    r.bias_layer.as_ref().map(|b| b.iter().map(|p| p.map(|c| factor * c.abs())).collect())
+/// The image and its noise as the per-tile comparison sees them.
+fn view<'a>(r: &'a Reference, variance: &'a [[f32; 3]]) -> tiles::NoisyImage<'a> {
+    tiles::NoisyImage { width: r.width, height: r.height, pixels: &r.pixels, variance, bias: None }
 }
 
 /// Exit 0 if the pixels are bit-identical, 1 if they differ (with how much); with `--tiles`, 0
@@ -83,8 +72,7 @@ pub(crate) fn run(args: DiffArgs) -> Result<ExitCode> {
         }
     };
     let (va, vb) = (layer(&ra, &args.a)?, layer(&rb, &args.b)?);
-    let (ba, bb) = (bias_bound(&ra), bias_bound(&rb));
-    let (ia, ib) = (view(&ra, &va, ba.as_deref()), view(&rb, &vb, bb.as_deref()));
+    let (ia, ib) = (view(&ra, &va), view(&rb, &vb));
     let c = tiles::compare(&ia, &ib, tile, args.significance)?;
     println!("{}", c.summary());
     for t in c.failures() {
