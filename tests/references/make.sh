@@ -2,11 +2,11 @@
 # Regenerates the small per-scene references of tests/suite/references.rs: every bundled scene
 # at 1/16 of its resolution, path traced long.
 #
-#   cargo build --release && tests/references/make.sh          # about 5 minutes on 2 cores
+#   cargo build --release && tests/references/make.sh          # about 10 minutes on 2 cores
 #
-# Path tracer, 8,192 samples per pixel, seed 1000, for every scene it can render (not the two
-# caustic scenes, nor dense-fog: see tests/suite/references.rs). Keep the list here and there in
-# step.
+# Path tracer, 8,192 samples per pixel, seed 1000, for every scene it can render; the two caustic
+# scenes by the hybrid (below); not dense-fog (see tests/suite/references.rs). Keep the lists here
+# and there in step.
 set -eu
 cd "$(dirname "$0")/../.."
 HAZE=${HAZE:-target/release/haze}
@@ -18,6 +18,13 @@ size() {
 for s in coloured-smoke cornell-box cornell-cloud-homogeneous cornell-cloud cornell-fog cumulus \
     fire fog-backward fog-forward spotlight-fog thin-fog vdb-cloud vdb-edges; do
     "$HAZE" render "scenes/$s.toml" --integrator path -n 8192 --seed 1000 \
+        --resolution "$(size "$s")" -q -o "tests/references/$s.exr"
+    rm -f "tests/references/$s.png"
+done
+# The two caustic scenes, which the path tracer cannot render: the hybrid, 8,000 iterations of
+# 50,000 light paths (their bias layers enter the test's allowance).
+for s in glass-caustic volumetric-caustic; do
+    "$HAZE" render "scenes/$s.toml" --reference -n 8000 -p 50000 --seed 1000 \
         --resolution "$(size "$s")" -q -o "tests/references/$s.exr"
     rm -f "tests/references/$s.png"
 done
