@@ -186,12 +186,9 @@ impl Film {
     }
 
     /// Adds one finished iteration image (row-major, top row first); its kernel bias, if the
-    /// film sums one, is taken as zero.
+    /// film sums one, is taken as zero (which leaves the bias sums as they are).
     pub fn add(&mut self, image: &[Rgb]) {
         self.saturated += self.value.add(image);
-        if let Some(b) = &mut self.bias {
-            self.saturated += b.add(&vec![Rgb::ZERO; image.len()]);
-        }
         self.iterations += 1;
     }
 
@@ -199,11 +196,10 @@ impl Film {
     /// without bias sums).
     pub fn add_with_bias(&mut self, image: &[Rgb], bias: &[Rgb]) {
         debug_assert_eq!(image.len(), bias.len());
-        self.saturated += self.value.add(image);
         if let Some(b) = &mut self.bias {
             self.saturated += b.add(bias);
         }
-        self.iterations += 1;
+        self.add(image);
     }
 
     /// Adds the sums of another film of the same size (disjoint iterations, e.g. another range
@@ -271,14 +267,9 @@ impl Film {
         let (bias, bias_var) = (self.bias(), self.bias_variance());
         let (mut sum, mut v, mut v2, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         let (mut b, mut b2) = (0.0f64, 0.0f64);
-        let w = self.width as usize;
-        let inside = |i: usize| {
-            region.is_none_or(|r| {
-                let (x, y) = ((i % w) as u32, (i / w) as u32);
-                x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1
-            })
-        };
-        for (i, (m, var)) in mean.iter().zip(&variance).enumerate().filter(|(i, _)| inside(*i)) {
+        let (w, h) = (self.width, self.height);
+        for i in region.unwrap_or(crate::output::Region::whole(w, h)).indices(w, h) {
+            let (m, var) = (mean[i], variance[i]);
             let (mut pixel, mut pixel_b) = (0.0, 0.0);
             for c in 0..3 {
                 sum += m[c] as f64;
@@ -328,11 +319,10 @@ impl Film {
         debug_assert_eq!(image.len(), self.value.sum.len());
         self.iterations += 1;
         self.value.replace(image, self.iterations);
-        if let Some(b) = &mut self.bias {
-            match bias {
-                Some(bias) => b.replace(bias, self.iterations),
-                None => b.replace(&vec![Rgb::ZERO; image.len()], self.iterations),
-            }
+        match (&mut self.bias, bias) {
+            (Some(b), Some(bias)) => b.replace(bias, self.iterations),
+            (Some(b), None) => *b = Sums::new(image.len()),
+            (None, _) => {}
         }
     }
 

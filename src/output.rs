@@ -73,8 +73,20 @@ impl TryFrom<[u32; 4]> for Region {
 }
 
 impl Region {
-    /// The region of a `width` × `height` image that is this one clipped to it; `Err` naming the
-    /// image if it lies outside.
+    /// The whole of a `width` × `height` image.
+    pub fn whole(width: u32, height: u32) -> Self {
+        Region { x0: 0, y0: 0, x1: width, y1: height }
+    }
+
+    /// The row-major indices of this region's pixels in a `width` × `height` image (clipped to
+    /// it), row by row.
+    pub fn indices(self, width: u32, height: u32) -> impl Iterator<Item = usize> {
+        (self.y0..self.y1.min(height)).flat_map(move |y| {
+            (self.x0..self.x1.min(width)).map(move |x| y as usize * width as usize + x as usize)
+        })
+    }
+
+    /// `Ok` if the region lies within a `width` × `height` image; `Err` naming the image if not.
     pub fn check_within(&self, width: u32, height: u32) -> std::result::Result<(), String> {
         if self.x1 > width || self.y1 > height {
             Err(format!(
@@ -102,6 +114,12 @@ impl std::str::FromStr for Region {
             _ => Err(format!("`{s}` is not a region X0,Y0,X1,Y1")),
         }
     }
+}
+
+/// The variance of the sum of a pixel's three channels whose per-channel variances are `v`,
+/// taken as fully correlated (they come from the same paths): (Σ_c √v_c)².
+pub(crate) fn channel_sum_variance(v: [f32; 3]) -> f64 {
+    v.iter().map(|&c| (c as f64).sqrt()).sum::<f64>().powi(2)
 }
 
 /// A rendered image: linear RGB radiance, row-major, top row first.
@@ -153,8 +171,8 @@ impl Image {
             height: film.height(),
             pixels: film.mean(),
             variance: noisy.then(|| film.variance_of_mean()),
-            bias: film.bias().filter(|_| film.iterations() >= 1),
-            bias_variance: film.bias_variance().filter(|_| noisy),
+            bias: (film.iterations() >= 1).then(|| film.bias()).flatten(),
+            bias_variance: noisy.then(|| film.bias_variance()).flatten(),
             info,
         }
     }
@@ -170,8 +188,7 @@ impl Image {
             sum += self.pixels[i].iter().map(|&c| c as f64).sum::<f64>();
             b += bias[i].iter().map(|&c| c as f64).sum::<f64>();
             if let Some(v) = &self.bias_variance {
-                // A pixel's channels fully correlated: the s.d. of the three add.
-                var += v[i].iter().map(|&c| (c as f64).sqrt()).sum::<f64>().powi(2);
+                var += channel_sum_variance(v[i]);
             }
         }
         let se = self.bias_variance.as_ref().map(|_| var.sqrt() / sum);
@@ -181,9 +198,7 @@ impl Image {
     /// The indices of the pixels of `region` (or of the whole image).
     fn region_pixels(&self, region: Option<Region>) -> impl Iterator<Item = usize> + use<> {
         let (w, h) = (self.width, self.height);
-        let r = region.unwrap_or(Region { x0: 0, y0: 0, x1: w, y1: h });
-        (r.y0..r.y1.min(h))
-            .flat_map(move |y| (r.x0..r.x1.min(w)).map(move |x| (y * w + x) as usize))
+        region.unwrap_or(Region::whole(w, h)).indices(w, h)
     }
 
     /// The estimated noise of the image relative to its mean, over `region` (or the whole

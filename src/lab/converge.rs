@@ -207,12 +207,9 @@ impl ErrorMeasure {
 /// Measures `pixels` (the reference's size, row-major) against `reference` over `region` (or the
 /// whole image).
 pub fn measure(pixels: &[[f32; 3]], reference: &Reference, region: Option<Region>) -> ErrorMeasure {
-    let w = reference.width as usize;
-    let r = region.unwrap_or(Region { x0: 0, y0: 0, x1: reference.width, y1: reference.height });
-    let idx = || {
-        (r.y0 as usize..r.y1 as usize)
-            .flat_map(move |y| (r.x0 as usize..r.x1 as usize).map(move |x| y * w + x))
-    };
+    let (w, h) = (reference.width, reference.height);
+    let r = region.unwrap_or(Region::whole(w, h));
+    let idx = || r.indices(w, h);
     let n = (3 * (r.x1 - r.x0) as usize * (r.y1 - r.y0) as usize) as f64;
     let mean: f64 =
         idx().map(|i| reference.pixels[i].iter().map(|&c| c as f64).sum::<f64>()).sum::<f64>() / n;
@@ -271,23 +268,18 @@ pub fn self_estimate(
     let t = StudentsT::new(0.0, 1.0, (n - 1) as f64).ok()?.inverse_cdf(0.975);
     let (mean, v) = (film.mean(), film.variance_of_mean());
     let (b, w) = (film.bias(), film.bias_variance());
-    let w_ = reference.width as usize;
-    let r = region.unwrap_or(Region { x0: 0, y0: 0, x1: reference.width, y1: reference.height });
+    let (width, height) = (reference.width, reference.height);
     let (mut mse, mut covered, mut count) = (0.0f64, 0u64, 0u64);
-    for y in r.y0 as usize..r.y1 as usize {
-        for x in r.x0 as usize..r.x1 as usize {
-            let i = y * w_ + x;
-            for c in 0..3 {
-                let at = |l: &Option<Vec<[f32; 3]>>| l.as_ref().map_or(0.0, |l| l[i][c] as f64);
-                let (bi, wi, vi) = (at(&b), at(&w), v[i][c] as f64);
-                let (b_ref, v_ref) = (at(&reference.bias_layer), at(&reference.variance_layer));
-                mse += vi + bi * bi - wi;
-                let bound =
-                    FIRST_ORDER_BIAS * (bi.abs() + b_ref.abs()) + t * (vi + wi + v_ref).sqrt();
-                let error = (mean[i][c] as f64 - reference.pixels[i][c] as f64).abs();
-                covered += (error <= bound) as u64;
-                count += 1;
-            }
+    for i in region.unwrap_or(Region::whole(width, height)).indices(width, height) {
+        for c in 0..3 {
+            let at = |l: &Option<Vec<[f32; 3]>>| l.as_ref().map_or(0.0, |l| l[i][c] as f64);
+            let (bi, wi, vi) = (at(&b), at(&w), v[i][c] as f64);
+            let (b_ref, v_ref) = (at(&reference.bias_layer), at(&reference.variance_layer));
+            mse += vi + bi * bi - wi;
+            let bound = FIRST_ORDER_BIAS * (bi.abs() + b_ref.abs()) + t * (vi + wi + v_ref).sqrt();
+            let error = (mean[i][c] as f64 - reference.pixels[i][c] as f64).abs();
+            covered += (error <= bound) as u64;
+            count += 1;
         }
     }
     (count > 0)

@@ -695,8 +695,7 @@ pub fn run(
 fn stated_bound(image: &crate::output::Image, iterations: u64) -> Option<f64> {
     let variance = image.variance.as_ref()?;
     let n = 3.0 * image.pixels.len() as f64;
-    let var: f64 =
-        variance.iter().map(|v| v.iter().map(|&c| (c as f64).sqrt()).sum::<f64>().powi(2)).sum();
+    let var: f64 = variance.iter().map(|&v| crate::output::channel_sum_variance(v)).sum();
     let se = var.sqrt() / n;
     if se == 0.0 {
         return None;

@@ -14,14 +14,11 @@
 
 use crate::common::{mean_and_se, scene_path, t_critical};
 use haze::Scene;
-use haze::lab::converge::Reference;
+use haze::lab::converge::{FIRST_ORDER_BIAS as FIRST_ORDER, Reference};
 use haze::progress::Silent;
 use haze::settings::{Integrator, RenderSettings};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
-
-/// The factor between the bias estimate and a first-order bias: 1 / (2 (1 − 1/√2)).
-const FIRST_ORDER: f64 = 1.707_106_781;
 
 #[test]
 fn the_bias_layer_bounds_the_measured_error_of_photon_images() {

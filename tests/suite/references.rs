@@ -172,7 +172,8 @@ fn the_caustic_scenes_match_their_committed_photon_references() {
             }
             let d: Vec<f64> = diffs.iter().map(|t| t[k]).collect();
             let b = biases.iter().map(|t| t[k]).sum::<f64>() / seeds as f64;
-            tiles.push((name, x0, y0, d, 1.707 * (b.abs() + rb.abs())));
+            let allowance = haze::lab::converge::FIRST_ORDER_BIAS * (b.abs() + rb.abs());
+            tiles.push((name, x0, y0, d, allowance));
         }
     }
     let per_tile = 1.0 - (1.0 - SIGNIFICANCE).powf(1.0 / tiles.len() as f64);

@@ -310,16 +310,18 @@ fn update_bar(bar: &ProgressBar, s: &Status) {
     } else {
         String::new()
     };
-    let error = match (i.settings.target_error, s.error_estimate()) {
-        (Some(target), Some(e)) => format!(
-            ", error ≤ {:.2} % ({:.0} % confidence; target {:.2} %)",
-            100.0 * e.upper,
-            100.0 * e.confidence,
-            100.0 * target
-        ),
-        (Some(_), None) => ", error: not yet estimated".to_string(),
-        _ => String::new(),
-    };
+    // The estimate costs a pass over the image: only with a target to show it against.
+    let error =
+        match (i.settings.target_error, i.settings.target_error.and_then(|_| s.error_estimate())) {
+            (Some(target), Some(e)) => format!(
+                ", error ≤ {:.2} % ({:.0} % confidence; target {:.2} %)",
+                100.0 * e.upper,
+                100.0 * e.confidence,
+                100.0 * target
+            ),
+            (Some(_), None) => ", error: not yet estimated".to_string(),
+            _ => String::new(),
+        };
     bar.set_message(format!(
         "it {} ({rate:.2} it/s), r = {:.5}{volume}{error}",
         i.iterations, i.radius
