@@ -2,11 +2,11 @@
 # Regenerates the small per-scene references of tests/suite/references.rs: every bundled scene
 # at 1/16 of its resolution, path traced long.
 #
-#   cargo build --release && tests/references/make.sh          # about 10 minutes on 2 cores
+#   cargo build --release && tests/references/make.sh          # about 40 minutes on 2 cores
 #
 # Path tracer, 8,192 samples per pixel, seed 1000, for every scene it can render; the two caustic
-# scenes by the hybrid (below); not dense-fog (see tests/suite/references.rs). Keep the lists here
-# and there in step.
+# scenes and dense-fog by the hybrid (below; see tests/suite/references.rs). Keep the lists and
+# settings here and there in step.
 set -eu
 cd "$(dirname "$0")/../.."
 HAZE=${HAZE:-target/release/haze}
@@ -28,4 +28,11 @@ for s in glass-caustic volumetric-caustic; do
         --resolution "$(size "$s")" -q -o "tests/references/$s.exr"
     rm -f "tests/references/$s.png"
 done
+# dense-fog, whose path-traced pixels are dominated by rare paths: the hybrid at a fixed volume
+# radius 10x the scene's (the test's renders use the same radii), 8,192 iterations of the
+# scene's 2,000 light paths (about 25 minutes on 2 cores).
+"$HAZE" render scenes/dense-fog.toml --reference -n 8192 --seed 1000 --alpha 0.9999 \
+    --volume-alpha 0.9999 --volume-radius-fraction 0.1 --resolution "$(size dense-fog)" -q \
+    -o tests/references/dense-fog.exr
+rm -f tests/references/dense-fog.png
 ls -l tests/references/*.exr
