@@ -103,18 +103,14 @@ pub mod fuzzing {
 
     /// The structural pre-scan of OpenVDB bytes alone (see `src/medium/vdbscan.rs`).
     pub fn vdb_scan(bytes: &[u8], grid: &str) -> Result<(), String> {
-        crate::medium::vdbscan::scan(bytes, grid)
+        crate::medium::vdbscan::scan(crate::medium::vdbscan::Input::Memory(bytes), grid)
     }
 
     /// The OpenVDB loader (pre-scan, vdb-rs, checks, dense copy) on a file's bytes, grid
     /// `density`.
     pub fn vdb(bytes: &[u8]) -> crate::Result<()> {
-        crate::medium::grid::DensityGrid::from_bytes(
-            bytes.to_vec(),
-            Path::new("fuzz.vdb"),
-            "density",
-        )
-        .map(|_| ())
+        crate::medium::grid::DensityGrid::from_bytes(bytes, Path::new("fuzz.vdb"), "density")
+            .map(|_| ())
     }
 }
 /// The README's examples, compiled (and the runnable ones run) by `cargo test --doc`.

@@ -1,23 +1,33 @@
-//! A structural pre-scan of an OpenVDB file, run over its bytes before vdb-rs 0.6 sees them, and
-//! haze's own reader for the grids vdb-rs cannot read: float grids saved as 16-bit half floats.
+//! haze's reader of OpenVDB float trees, and the structural checks that keep vdb-rs 0.6 safe on the
+//! header it still reads.
 //!
 //! vdb-rs allocates whatever a count or a length in the file asks for before it reads the bytes
 //! that count promises, so a single corrupt byte can make it request 10¹⁷ bytes and the process
-//! abort (no panic, nothing to catch). This scan walks the same structure in the same order —
-//! header, metadata, grid descriptors, and for the grid to be read its transform, tree topology
-//! and leaf data — checking every count and length against the bytes that remain and every
-//! decompressed size against the node it fills, without allocating from any of them. Files it
-//! accepts are ones on which vdb-rs allocates at most a small multiple of the file's size; files
-//! it refuses get a message naming the offset. Only what vdb-rs reads is scanned, and only for the
-//! versions and layouts haze accepts (file format 222 and later, float trees `5_4_3`).
+//! abort (no panic, nothing to catch). haze lets vdb-rs read only the header and the grid
+//! descriptors, after [`check_header`] has walked them checking every count and length against
+//! the bytes that remain, and reads the grid's tree itself ([`for_each_value`]): transform, tree
+//! topology and leaf data, every count and length checked against the file and every
+//! decompressed size against the node it fills, allocating from no count (at most a node's worth
+//! of bytes at a time). Files it refuses get a message naming the offset. Only the versions and
+//! layouts haze accepts are read (file format 222 and later, float trees `5_4_3`).
 //!
-//! Half-float grids (`saveFloatAsHalf`, type `Tree_float_5_4_3_HalfFloat`) store every node's
-//! values as 16-bit floats but, unlike full floats, write nothing at all for a node with no value
-//! to store (OpenVDB's `HalfWriter` returns early on a count of zero), while vdb-rs 0.6 still reads
-//! a block size there and loses its place in the file (an error, or with an unlucky size an
-//! abort). [`for_each_half`] decodes such grids itself with the same walk: zip blocks through
-//! flate2, Blosc blocks through c-blosc (the library vdb-rs links), after the block's header has
-//! been validated against the bytes it came in and the size the node needs.
+//! The tree is read straight from the file ([`Input::File`], through a buffered reader: the file
+//! is never held in memory whole) or from its bytes in memory ([`Input::Memory`], for the fuzz
+//! targets and tests), with the same code.
+//!
+//! Why not vdb-rs for the tree: it holds the whole tree in memory while haze copies it (the
+//! loading peak was 2.1× the final grid), drops root-level tiles, and misreads half-float grids
+//! (`saveFloatAsHalf`, type `Tree_float_5_4_3_HalfFloat`), which store every node's values as
+//! 16-bit floats but, unlike full floats, write nothing at all for a node with no value to store
+//! (OpenVDB's `HalfWriter` returns early on a count of zero), while vdb-rs 0.6 still reads a block
+//! size there and loses its place in the file (an error, or with an unlucky size an abort).
+//! Compressed blocks are decoded here — zip through flate2, Blosc through c-blosc (the library
+//! vdb-rs links) after the block's header has been validated against the bytes it came in and the
+//! size the node needs.
+
+use std::io::Read;
+use std::path::Path;
+
 /// The byte offset and what is wrong there.
 pub(crate) type ScanError = String;
 
@@ -27,42 +37,116 @@ const ZIP: u32 = 0x1;
 const ACTIVE_MASK: u32 = 0x2;
 const BLOSC: u32 = 0x4;
 
+/// Where an OpenVDB file's bytes are read from.
+#[derive(Clone, Copy)]
+pub(crate) enum Input<'a> {
+    /// The whole file in memory.
+    Memory(&'a [u8]),
+    /// The file itself, read as needed.
+    File(&'a Path),
+}
+
+/// What a [`Cursor`] reads from.
+enum Source<'a> {
+    Memory(&'a [u8]),
+    File(std::io::BufReader<std::fs::File>),
+}
+
 struct Cursor<'a> {
-    bytes: &'a [u8],
-    pos: usize,
+    source: Source<'a>,
+    /// The file's length.
+    len: u64,
+    pos: u64,
 }
 
 impl<'a> Cursor<'a> {
-    fn remaining(&self) -> usize {
-        self.bytes.len().saturating_sub(self.pos)
+    fn open(input: Input<'a>) -> Result<Cursor<'a>, ScanError> {
+        match input {
+            Input::Memory(bytes) => {
+                Ok(Cursor { source: Source::Memory(bytes), len: bytes.len() as u64, pos: 0 })
+            }
+            Input::File(path) => {
+                let file = std::fs::File::open(path).map_err(|e| format!("cannot open: {e}"))?;
+                let len = file.metadata().map_err(|e| format!("cannot read: {e}"))?.len();
+                let source = Source::File(std::io::BufReader::with_capacity(1 << 16, file));
+                Ok(Cursor { source, len, pos: 0 })
+            }
+        }
+    }
+
+    fn remaining(&self) -> u64 {
+        self.len.saturating_sub(self.pos)
     }
 
     fn fail<T>(&self, what: &str) -> Result<T, ScanError> {
         Err(format!("corrupt file at byte {:#x}: {what}", self.pos))
     }
 
-    fn take(&mut self, n: u64, what: &str) -> Result<&'a [u8], ScanError> {
-        if n > self.remaining() as u64 {
+    fn check(&self, n: u64, what: &str) -> Result<(), ScanError> {
+        if n > self.remaining() {
             return self.fail(&format!(
                 "{what} needs {n} bytes but only {} remain (truncated or corrupt)",
                 self.remaining()
             ));
         }
-        let s = &self.bytes[self.pos..self.pos + n as usize];
-        self.pos += n as usize;
-        Ok(s)
+        Ok(())
+    }
+
+    /// Reads `out.len()` bytes (checked against what remains).
+    fn read(&mut self, out: &mut [u8], what: &str) -> Result<(), ScanError> {
+        self.check(out.len() as u64, what)?;
+        match &mut self.source {
+            Source::Memory(bytes) => {
+                let at = self.pos as usize;
+                out.copy_from_slice(&bytes[at..at + out.len()]);
+            }
+            Source::File(f) => f.read_exact(out).map_err(|e| {
+                format!("cannot read {} bytes at byte {:#x} ({what}): {e}", out.len(), self.pos)
+            })?,
+        }
+        self.pos += out.len() as u64;
+        Ok(())
+    }
+
+    /// `n` bytes (checked against what remains: a corrupt count allocates at most the rest of
+    /// the file, and callers bound the counts they take).
+    fn take(&mut self, n: u64, what: &str) -> Result<Vec<u8>, ScanError> {
+        self.check(n, what)?;
+        let mut out = vec![0; n as usize];
+        self.read(&mut out, what)?;
+        Ok(out)
+    }
+
+    /// `n` bytes into `out` (its allocation reused).
+    fn take_into(&mut self, n: u64, what: &str, out: &mut Vec<u8>) -> Result<(), ScanError> {
+        self.check(n, what)?;
+        out.clear();
+        out.resize(n as usize, 0);
+        self.read(out, what)
+    }
+
+    fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N], ScanError> {
+        let mut out = [0; N];
+        self.read(&mut out, what)?;
+        Ok(out)
+    }
+
+    /// Passes over `n` bytes (checked against what remains).
+    fn skip(&mut self, n: u64, what: &str) -> Result<(), ScanError> {
+        self.check(n, what)?;
+        self.seek(self.pos + n, what)
     }
 
     fn u8(&mut self, what: &str) -> Result<u8, ScanError> {
-        Ok(self.take(1, what)?[0])
+        Ok(self.array::<1>(what)?[0])
     }
 
     fn u32(&mut self, what: &str) -> Result<u32, ScanError> {
-        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap_or_default()))
+        Ok(u32::from_le_bytes(self.array(what)?))
     }
 
     fn u64(&mut self, what: &str) -> Result<u64, ScanError> {
-        Ok(u64::from_le_bytes(self.take(8, what)?.try_into().unwrap_or_default()))
+        Ok(u64::from_le_bytes(self.array(what)?))
     }
 
     fn i64(&mut self, what: &str) -> Result<i64, ScanError> {
@@ -70,21 +154,32 @@ impl<'a> Cursor<'a> {
     }
 
     fn seek(&mut self, pos: u64, what: &str) -> Result<(), ScanError> {
-        if pos > self.bytes.len() as u64 {
+        if pos > self.len {
             return self.fail(&format!("{what} points to byte {pos:#x}, past the end of the file"));
         }
-        self.pos = pos as usize;
+        if let Source::File(f) = &mut self.source {
+            // Relative seeks keep the buffer where they land within it.
+            let delta = pos as i64 - self.pos as i64;
+            f.seek_relative(delta).map_err(|e| format!("cannot seek to byte {pos:#x}: {e}"))?;
+        }
+        self.pos = pos;
         Ok(())
     }
 
     /// A length-prefixed string.
-    fn name(&mut self, what: &str) -> Result<&'a [u8], ScanError> {
+    fn name(&mut self, what: &str) -> Result<Vec<u8>, ScanError> {
         let len = self.u32(what)?;
         self.take(len as u64, what)
     }
 
-    /// 64-bit mask words for `bits` bits, returned as set-bit count and the words.
-    fn mask(&mut self, bits: usize, what: &str) -> Result<(usize, &'a [u8]), ScanError> {
+    /// A length-prefixed string passed over.
+    fn skip_name(&mut self, what: &str) -> Result<(), ScanError> {
+        let len = self.u32(what)?;
+        self.skip(len as u64, what)
+    }
+
+    /// A mask of `bits` bits (64-bit words): its set-bit count and its bytes.
+    fn mask(&mut self, bits: usize, what: &str) -> Result<(usize, Vec<u8>), ScanError> {
         let words = self.take((bits / 8) as u64, what)?;
         Ok((words.iter().map(|b| b.count_ones() as usize).sum(), words))
     }
@@ -99,8 +194,8 @@ fn ones(words: &[u8]) -> impl Iterator<Item = usize> + '_ {
 }
 
 /// One grid descriptor.
-struct Descriptor<'a> {
-    grid_type: &'a [u8],
+struct Descriptor {
+    grid_type: Vec<u8>,
     grid_pos: u64,
     block_pos: u64,
     compression: u32,
@@ -112,7 +207,7 @@ struct Descriptor<'a> {
 const FLOAT_TREE: &[u8] = b"Tree_float_5_4_3";
 const HALF_SUFFIX: &[u8] = b"_HalfFloat";
 
-impl Descriptor<'_> {
+impl Descriptor {
     fn is_float_tree(&self) -> bool {
         self.grid_type == FLOAT_TREE || self.grid_type.strip_suffix(HALF_SUFFIX) == Some(FLOAT_TREE)
     }
@@ -127,63 +222,69 @@ fn metadata(c: &mut Cursor) -> Result<bool, ScanError> {
         let name = c.name("metadata name")?;
         let ty = c.name("metadata type")?;
         let len = c.u32("metadata length")? as u64;
-        let size = match ty {
+        let size = match ty.as_slice() {
             b"bool" => 1,
             b"int32" | b"float" => 4,
             b"int64" => 8,
             b"vec3i" => 12,
             _ => len, // strings and unknown types: `len` bytes
         };
-        let value = c.take(size, "metadata value")?;
-        if name == b"is_saved_as_half_float" {
+        if name == b"is_saved_as_half_float" && ty == b"bool" {
             // vdb-rs keeps the last entry of a name: so does this.
-            half = ty == b"bool" && value[0] != 0;
+            half = c.u8("metadata value")? != 0;
+        } else {
+            if name == b"is_saved_as_half_float" {
+                half = false;
+            }
+            c.skip(size, "metadata value")?;
         }
     }
     Ok(half)
 }
 
-/// Checks the file header and every grid descriptor, then the grid named `grid` if it is a float
-/// grid (other grids are refused by name and type later, with their own messages).
-pub(crate) fn scan(bytes: &[u8], grid: &str) -> Result<(), ScanError> {
-    let (mut c, found) = locate(bytes, grid)?;
+/// Checks the file header and every grid descriptor (what vdb-rs reads of the file), and that
+/// grid `grid`'s transform can be read.
+pub(crate) fn check_header(input: Input, grid: &str) -> Result<(), ScanError> {
+    let (mut c, found) = locate(input, grid)?;
+    if let Some(d) = found {
+        read_transform(&mut c, &d)?;
+    }
+    Ok(())
+}
+
+/// Walks grid `grid` whole without decoding its values (the structure only: what
+/// [`for_each_value`] checks before it decodes).
+pub(crate) fn scan(input: Input, grid: &str) -> Result<(), ScanError> {
+    let (mut c, found) = locate(input, grid)?;
     match found {
-        Some(d) if d.is_float_tree() => walk(&mut c, &d, &mut |_| Ok(())).map(|_| ()),
+        Some(d) if d.is_float_tree() => walk(&mut c, &d, &mut |_| Ok(())),
         _ => Ok(()),
     }
 }
 
-/// Whether grid `grid` of the (scanned) file is a float grid stored as half floats.
-pub(crate) fn is_half(bytes: &[u8], grid: &str) -> Result<bool, ScanError> {
-    Ok(locate(bytes, grid)?.1.is_some_and(|d| d.half && d.is_float_tree()))
-}
-
 /// The header and descriptors, with a cursor and the descriptor of grid `grid` if there is one.
-fn locate<'a>(
-    bytes: &'a [u8],
-    grid: &str,
-) -> Result<(Cursor<'a>, Option<Descriptor<'a>>), ScanError> {
-    let mut c = Cursor { bytes, pos: 0 };
-    c.take(8, "magic number")?;
+fn locate<'a>(input: Input<'a>, grid: &str) -> Result<(Cursor<'a>, Option<Descriptor>), ScanError> {
+    let mut c = Cursor::open(input)?;
+    c.skip(8, "magic number")?;
     let version = c.u32("file version")?;
     if version < NODE_MASK_COMPRESSION {
         return Err(format!(
             "OpenVDB file format {version} is older than haze reads (222, OpenVDB 3 and later)"
         ));
     }
-    c.take(8, "library version")?;
+    c.skip(8, "library version")?;
     if c.u8("grid offsets flag")? != 1 {
         return c.fail("the file has no grid offsets (not supported)");
     }
-    c.take(36, "file UUID")?;
+    c.skip(36, "file UUID")?;
     metadata(&mut c)?;
     let grid_count = c.u32("grid count")?;
     let mut found = None;
     for _ in 0..grid_count {
-        let start = c.pos as u64;
+        let start = c.pos;
         let name = c.name("grid name")?;
         let grid_type = c.name("grid type")?;
-        c.name("grid instance parent")?;
+        c.skip_name("grid instance parent")?;
         let grid_pos = c.u64("grid position")?;
         let block_pos = c.u64("grid data position")?;
         let end_pos = c.u64("grid end position")?;
@@ -217,25 +318,25 @@ enum Codec {
     Blosc,
 }
 
-/// What the walk hands its visitor: a node of `log2` dimension (5 or 4: internal, 3: leaf) at
-/// voxel `origin`, its value mask and its stored values.
-struct Node<'a> {
+/// What the walk hands its visitor: a node of `log2` dimension (5 or 4: internal, 3: leaf; 0: a
+/// root tile) at voxel `origin`, its value mask and its stored values.
+struct Node<'b> {
     origin: [i32; 3],
     log2: u32,
     /// The value mask's words (active values and tiles).
-    active: &'a [u8],
+    active: &'b [u8],
     /// The child mask's words (internal nodes; empty for leaves).
-    children: &'a [u8],
-    values: Values<'a>,
+    children: &'b [u8],
+    values: Values<'b>,
 }
 
 /// A node's values as stored: `count` values of `size` bytes (the active ones, or all `n`).
-struct Values<'a> {
+struct Values<'b> {
     n: usize,
     count: usize,
     size: usize,
     codec: Codec,
-    block: &'a [u8],
+    block: &'b [u8],
 }
 
 /// Voxel offset of child `i` of a node of `log2` dimension whose children span `child` voxels.
@@ -248,84 +349,94 @@ fn child_origin(origin: [i32; 3], log2: u32, i: usize, child: i32) -> [i32; 3] {
     [at(origin[0], x), at(origin[1], y), at(origin[2], z)]
 }
 
-/// Walks the transform, topology and leaf data of a float grid, checking every count and length,
-/// and hands every node to `visit`; returns the transform's name and vectors.
-fn walk<'a>(
-    c: &mut Cursor<'a>,
-    d: &Descriptor<'a>,
-    visit: &mut dyn FnMut(Node<'a>) -> Result<(), ScanError>,
-) -> Result<(&'a [u8], &'a [u8]), ScanError> {
-    let (map, transform) = read_transform(c, d)?;
-    if transform.is_empty() {
-        return Ok((map, transform)); // refused by name later (vdb-rs would panic on it)
+/// The origin of a root child or tile: three little-endian i32.
+fn origin_of(b: &[u8]) -> [i32; 3] {
+    std::array::from_fn(|k| i32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap_or_default()))
+}
+
+/// Walks the topology and leaf data of a float grid (after its transform), checking every count
+/// and length, and hands every node to `visit`.
+fn walk(
+    c: &mut Cursor,
+    d: &Descriptor,
+    visit: &mut dyn FnMut(Node) -> Result<(), ScanError>,
+) -> Result<(), ScanError> {
+    if read_transform(c, d)?.place.is_none() {
+        return Ok(()); // refused by name by the caller
     }
     if c.u32("buffer count")? != 1 {
         return c.fail("multi-buffer trees are not supported");
     }
-    c.take(4, "background value")?;
+    c.skip(4, "background value")?;
     let tiles = c.u32("root tile count")?;
     let roots = c.u32("root child count")?;
     // Root tiles: origin, full-size value, active flag.
-    let root_tiles = c.take(tiles as u64 * 17, "root tiles")?;
-    for t in root_tiles.chunks_exact(17) {
-        let word =
-            |k: usize| i32::from_le_bytes(t[4 * k..4 * k + 4].try_into().unwrap_or_default());
+    c.check(tiles as u64 * 17, "root tiles")?;
+    for _ in 0..tiles {
+        let t: [u8; 17] = c.array("root tile")?;
         if t[16] != 0 {
             let values = Values { n: 1, count: 1, size: 4, codec: Codec::Raw, block: &t[12..16] };
-            let (origin, log2) = ([word(0), word(1), word(2)], 0);
-            visit(Node { origin, log2, active: &[1], children: &[], values })?;
+            visit(Node { origin: origin_of(&t), log2: 0, active: &[1], children: &[], values })?;
         }
     }
     // Topology: per root child, a 32³ internal node, its 16³ children, their 8³ leaves' masks.
     let mut leaves: Vec<[i32; 3]> = Vec::new(); // leaf origins, in file order
+    let mut buffers = Buffers::default();
     for _ in 0..roots {
-        let o = c.take(12, "root child origin")?;
-        let word =
-            |k: usize| i32::from_le_bytes(o[4 * k..4 * k + 4].try_into().unwrap_or_default());
-        let origin5 = [word(0), word(1), word(2)];
-        let (children5, node5) = node(c, d, 5, origin5)?;
-        visit(node5)?;
-        for i in ones(children5) {
+        let origin5 = origin_of(&c.array::<12>("root child origin")?);
+        let children5 = node(c, d, 5, origin5, &mut buffers, visit)?;
+        for i in ones(&children5) {
             let origin4 = child_origin(origin5, 5, i, 128);
-            let (children4, node4) = node(c, d, 4, origin4)?;
-            visit(node4)?;
-            let count = ones(children4).count();
-            c.take(count as u64 * 64, "leaf masks")?;
-            leaves.extend(ones(children4).map(|k| child_origin(origin4, 4, k, 8)));
+            let children4 = node(c, d, 4, origin4, &mut buffers, visit)?;
+            let count = ones(&children4).count();
+            c.skip(count as u64 * 64, "leaf masks")?;
+            // Bounded: each leaf's data takes at least 65 bytes of the file.
+            leaves.extend(ones(&children4).map(|k| child_origin(origin4, 4, k, 8)));
         }
     }
     // Data: per leaf, its value mask and its 512 values.
     c.seek(d.block_pos, "the grid data position")?;
     for origin in leaves {
         let (active, words) = c.mask(512, "leaf value mask")?;
-        let values = values(c, d, 512, active)?;
-        visit(Node { origin, log2: 3, active: words, children: &[], values })?;
+        let values = values(c, d, 512, active, &mut buffers.block)?;
+        visit(Node { origin, log2: 3, active: &words, children: &[], values })?;
     }
-    Ok((map, transform))
+    Ok(())
 }
 
-/// An internal node of `log2` dimension (masks and values): its child mask and the node.
-fn node<'a>(
-    c: &mut Cursor<'a>,
-    d: &Descriptor<'a>,
+/// Scratch space of the walk, reused from node to node.
+#[derive(Default)]
+struct Buffers {
+    block: Vec<u8>,
+}
+
+/// An internal node of `log2` dimension (masks and values), handed to `visit`: returns its child
+/// mask.
+fn node(
+    c: &mut Cursor,
+    d: &Descriptor,
     log2: u32,
     origin: [i32; 3],
-) -> Result<(&'a [u8], Node<'a>), ScanError> {
+    buffers: &mut Buffers,
+    visit: &mut dyn FnMut(Node) -> Result<(), ScanError>,
+) -> Result<Vec<u8>, ScanError> {
     let n = 1usize << (3 * log2);
     let (_, children) = c.mask(n, "child mask")?;
     let (active, words) = c.mask(n, "value mask")?;
-    let values = values(c, d, n, active)?;
-    Ok((children, Node { origin, log2, active: words, children, values }))
+    let values = values(c, d, n, active, &mut buffers.block)?;
+    visit(Node { origin, log2, active: &words, children: &children, values })?;
+    Ok(children)
 }
 
 /// A node's compressed values (vdb-rs `read_compressed`, OpenVDB `readCompressedValues`): `n`
-/// values, `active` of them active.
-fn values<'a>(
-    c: &mut Cursor<'a>,
-    d: &Descriptor<'a>,
+/// values, `active` of them active, their bytes read into `block`.
+fn values<'b>(
+    c: &mut Cursor,
+    d: &Descriptor,
     n: usize,
     active: usize,
-) -> Result<Values<'a>, ScanError> {
+    block: &'b mut Vec<u8>,
+) -> Result<Values<'b>, ScanError> {
     let meta = c.u8("node metadata")?;
     if meta > 6 {
         return c.fail(&format!("invalid node metadata {meta}"));
@@ -337,114 +448,131 @@ fn values<'a>(
         5 => 2,
         _ => 0,
     };
-    c.take(inactive * 4, "inactive values")?;
+    c.skip(inactive * 4, "inactive values")?;
     if matches!(meta, 3..=5) {
-        c.take((n / 8) as u64, "selection mask")?;
+        c.skip((n / 8) as u64, "selection mask")?;
     }
     let count = if d.compression & ACTIVE_MASK != 0 && meta != 6 { active } else { n };
     let size = if d.half { 2 } else { 4 };
     let bytes = (count * size) as u64;
-    let none = |codec| Values { n, count, size, codec, block: &[] };
-    if d.half && count == 0 {
-        // OpenVDB writes nothing for an empty half-float block (see the module's text).
-        return Ok(none(Codec::Raw));
-    }
-    if d.compression & (BLOSC | ZIP) == 0 {
-        let block = c.take(bytes, "values")?;
-        return Ok(Values { block, ..none(Codec::Raw) });
-    }
-    let size_at = c.pos;
-    let stored = c.i64("compressed size")?;
-    if stored <= 0 {
-        // Stored uncompressed: vdb-rs reads |size| / 4 values, so anything but the node's count
-        // would leave it reading other bytes than this scan checked, or short of values.
-        if stored.unsigned_abs() != bytes {
-            return c.fail(&format!("stored block of {} bytes for {count} values", -stored));
-        }
-        let block = c.take(bytes, "values")?;
-        return Ok(Values { block, ..none(Codec::Raw) });
-    }
-    let block = c.take(stored as u64, "compressed values")?;
-    if d.compression & BLOSC != 0 {
-        if count > 0 {
-            // The 16-byte Blosc header: decompressed size at 4..8, compressed size at 12..16,
-            // which c-blosc 1.x trusts over the buffer's real length (a larger one made it read
-            // past the buffer: found by the `vdb` fuzz target). Zip streams are bounded by their
-            // decoder.
-            let word = |k: usize| {
-                block.get(k..k + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
-            };
-            let at = Cursor { bytes: c.bytes, pos: size_at };
-            if word(12).is_none_or(|n| n < 16 || n as usize > block.len()) {
-                return at.fail(&match word(12) {
-                    Some(n) => format!("a Blosc block of {} bytes says it holds {n}", block.len()),
-                    None => {
-                        format!("a Blosc block of {} bytes has no complete header", block.len())
-                    }
-                });
+    let compressed = d.compression & (BLOSC | ZIP) != 0;
+    // The stored length: OpenVDB writes nothing for an empty half-float block (see the module's
+    // text); uncompressed blocks are the values; compressed ones say their size (≤ 0: stored
+    // uncompressed).
+    let (codec, length) = if d.half && count == 0 {
+        (Codec::Raw, 0)
+    } else if !compressed {
+        (Codec::Raw, bytes)
+    } else {
+        let stored = c.i64("compressed size")?;
+        if stored <= 0 {
+            // A stored block holds exactly the node's values: any other size is corrupt.
+            if stored.unsigned_abs() != bytes {
+                return c.fail(&format!("stored block of {} bytes for {count} values", -stored));
             }
-            if word(4) != Some(bytes as u32) {
-                return at.fail(&match word(4) {
-                    Some(n) => format!(
-                        "a compressed block says it expands to {n} bytes, but its {count} values need {bytes}"
-                    ),
-                    None => format!("a compressed block has no complete header ({count} values)"),
-                });
-            }
+            (Codec::Raw, bytes)
+        } else if stored as u64 > 2 * bytes + 1024 {
+            // Zip and Blosc expand incompressible data by well under 1 %: a block more than
+            // twice its node's size (plus headers) is corrupt, and not read into memory.
+            return c.fail(&format!("a compressed block of {stored} bytes for {count} values"));
+        } else if d.compression & BLOSC != 0 {
+            (Codec::Blosc, stored as u64)
+        } else {
+            (Codec::Zip, stored as u64)
         }
-        return Ok(Values { block, ..none(Codec::Blosc) });
+    };
+    let at = c.pos;
+    c.take_into(length, "values", block)?;
+    let block: &'b [u8] = block;
+    if matches!(codec, Codec::Blosc) && count > 0 {
+        // The 16-byte Blosc header: decompressed size at 4..8, compressed size at 12..16, which
+        // c-blosc 1.x trusts over the buffer's real length (a larger one made it read past the
+        // buffer: found by the `vdb` fuzz target). Zip streams are bounded by their decoder.
+        let word = |k: usize| {
+            block.get(k..k + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
+        };
+        // Offsets name the block's size field, as before the block was read.
+        let fail = |what: String| format!("corrupt file at byte {:#x}: {what}", at - 8);
+        if word(12).is_none_or(|n| n < 16 || n as usize > block.len()) {
+            return Err(fail(match word(12) {
+                Some(n) => format!("a Blosc block of {} bytes says it holds {n}", block.len()),
+                None => format!("a Blosc block of {} bytes has no complete header", block.len()),
+            }));
+        }
+        if word(4) != Some(bytes as u32) {
+            return Err(fail(match word(4) {
+                Some(n) => format!(
+                    "a compressed block says it expands to {n} bytes, but its {count} values need {bytes}"
+                ),
+                None => format!("a compressed block has no complete header ({count} values)"),
+            }));
+        }
     }
-    Ok(Values { block, ..none(Codec::Zip) })
+    Ok(Values { n, count, size, codec, block })
 }
 
-/// The grid's transform: its map's name and vectors (none for maps haze does not read).
-fn read_transform<'a>(
-    c: &mut Cursor<'a>,
-    d: &Descriptor<'a>,
-) -> Result<(&'a [u8], &'a [u8]), ScanError> {
+/// A grid's transform: its map's name and, for the maps haze reads (uniform scale,
+/// scale-translate), its translation and voxel size.
+pub(crate) struct Transform {
+    pub map: String,
+    pub place: Option<([f64; 3], [f64; 3])>,
+}
+
+/// The grid's transform, read from its start.
+fn read_transform(c: &mut Cursor, d: &Descriptor) -> Result<Transform, ScanError> {
     c.seek(d.grid_pos, "the grid position")?;
     c.u32("grid compression")?;
     metadata(c)?;
-    let map = c.name("transform name")?;
-    let vectors = match map {
-        b"UniformScaleMap" => 5,
-        b"UniformScaleTranslateMap" | b"ScaleTranslateMap" => 6,
-        _ => 0,
+    let map: String = c.name("transform name")?.iter().map(|&b| b as char).collect();
+    let mut vec = || -> Result<[f64; 3], ScanError> {
+        let v: [u8; 24] = c.array("transform")?;
+        Ok(std::array::from_fn(|j| {
+            f64::from_le_bytes(v[8 * j..8 * j + 8].try_into().unwrap_or_default())
+        }))
     };
-    Ok((map, c.take(vectors * 24, "transform")?))
+    let place = match map.as_str() {
+        // Scale values, voxel size, inverse scale, inverse scale², inverse twice scale.
+        "UniformScaleMap" => {
+            vec()?;
+            let v = vec()?;
+            for _ in 0..3 {
+                vec()?;
+            }
+            Some(([0.0; 3], v))
+        }
+        // Translation, scale values, voxel size, and the same three.
+        "UniformScaleTranslateMap" | "ScaleTranslateMap" => {
+            let t = vec()?;
+            vec()?;
+            let v = vec()?;
+            for _ in 0..3 {
+                vec()?;
+            }
+            Some((t, v))
+        }
+        // Other maps have other layouts (vdb-rs would panic on them): the caller refuses them.
+        _ => None,
+    };
+    Ok(Transform { map, place })
 }
 
-/// The translation and voxel size of half-float grid `grid` (uniform-scale or scale-translate
-/// maps; the caller refuses others first).
-pub(crate) fn half_transform(bytes: &[u8], grid: &str) -> Result<([f64; 3], [f64; 3]), ScanError> {
-    let (mut c, Some(d)) = locate(bytes, grid)? else {
+/// Grid `grid`'s transform.
+pub(crate) fn transform(input: Input, grid: &str) -> Result<Transform, ScanError> {
+    let (mut c, Some(d)) = locate(input, grid)? else {
         return Err(format!("no grid named `{grid}`"));
     };
-    let (map, v) = read_transform(&mut c, &d)?;
-    let vec = |k: usize| -> [f64; 3] {
-        std::array::from_fn(|j| {
-            let at = 24 * k + 8 * j;
-            f64::from_le_bytes(v[at..at + 8].try_into().unwrap_or_default())
-        })
-    };
-    match map {
-        // Scale values, voxel size, …
-        b"UniformScaleMap" => Ok(([0.0; 3], vec(1))),
-        // Translation, scale values, voxel size, …
-        _ if !v.is_empty() => Ok((vec(0), vec(2))),
-        _ => Err("unsupported transform".into()),
-    }
+    read_transform(&mut c, &d)
 }
 
 /// Calls `f(first voxel, edge length in voxels, value)` for every active voxel and tile (root
-/// tiles included) of half-float grid `grid`, decoding the file's bytes; the walk checks every
-/// count and length as [`scan`] does.
-pub(crate) fn for_each_half(
-    bytes: &[u8],
+/// tiles included) of float grid `grid` (full or half floats), decoding the file's bytes; every
+/// count and length is checked as [`scan`] does.
+pub(crate) fn for_each_value(
+    input: Input,
     grid: &str,
     f: &mut dyn FnMut([i32; 3], i32, f32),
 ) -> Result<(), ScanError> {
-    let (mut c, Some(d)) = locate(bytes, grid)? else {
+    let (mut c, Some(d)) = locate(input, grid)? else {
         return Err(format!("no grid named `{grid}`"));
     };
     let mut values = Vec::new();
@@ -476,8 +604,7 @@ pub(crate) fn for_each_half(
             f(origin, edge, v);
         }
         Ok(())
-    })?;
-    Ok(())
+    })
 }
 
 /// The values of a node, decompressed and widened to `f32`.

@@ -36,29 +36,40 @@ use std::path::{Path, PathBuf};
 pub(crate) fn read_bounded(path: &Path, max: u64, what: &str) -> Result<Vec<u8>> {
     use std::io::Read;
     let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
-    let refuse = |message: String| Error::Io {
-        path: path.to_path_buf(),
-        error: std::io::Error::new(std::io::ErrorKind::InvalidInput, message),
-    };
+    let len = check_file(path, max, what)?;
+    let file = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(max + 1).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > max {
+        return Err(refusal(path, format!("grew past {max} bytes while being read")));
+    }
+    Ok(bytes)
+}
+
+/// Checks that `path` is a regular file of at most `max` bytes (`what` names it in messages) and
+/// returns its length.
+pub(crate) fn check_file(path: &Path, max: u64, what: &str) -> Result<u64> {
+    let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
     // stat first: opening a FIFO for reading would block until a writer came.
     let meta = std::fs::metadata(path).map_err(io)?;
     if !meta.is_file() {
         let kind = if meta.is_dir() { "a directory" } else { "not a regular file" };
-        return Err(refuse(format!("is {kind}; {what} must be a regular file")));
+        return Err(refusal(path, format!("is {kind}; {what} must be a regular file")));
     }
     if meta.len() > max {
-        return Err(refuse(format!(
-            "{} bytes is more than haze reads as {what} ({max} bytes)",
-            meta.len()
-        )));
+        return Err(refusal(
+            path,
+            format!("{} bytes is more than haze reads as {what} ({max} bytes)", meta.len()),
+        ));
     }
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    file.take(max + 1).read_to_end(&mut bytes).map_err(io)?;
-    if bytes.len() as u64 > max {
-        return Err(refuse(format!("grew past {max} bytes while being read")));
+    Ok(meta.len())
+}
+
+fn refusal(path: &Path, message: String) -> Error {
+    Error::Io {
+        path: path.to_path_buf(),
+        error: std::io::Error::new(std::io::ErrorKind::InvalidInput, message),
     }
-    Ok(bytes)
 }
 
 /// How one grid of a grid medium is stored ([`Scene::grids`]).
