@@ -34,6 +34,7 @@
 //! integrator = "hybrid"     # "hybrid" (light sampling + photons), "photons" or "path"
 //! progression = "probabilistic"  # or "original": Hachisuka 2008 per-pixel statistics (surfaces only)
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
+//! emission_nee_distance = 2  # emitting media's light from ≥ this far by next-event estimation (hybrid; off if absent)
 //! photon_guiding = "visibility"  # emit photons towards what the camera sees, or "off"
 //! ```
 
@@ -492,6 +493,13 @@ render_settings! {
     /// unbiased, and it bounds the cost of beam queries where photons crowd. Off if absent.
     [long, value_name = "B"]
     beam_cell_budget: u32, optional = None, at_least_one;
+
+    /// Next-event estimation towards emitting media (hybrid): light from their points at least
+    /// this far (scene units) from the receiving surface or medium point is sampled directly,
+    /// nearer light is left to photons. Off if absent: photons carry it all (on the bundled
+    /// fire it lost to photons at equal time; docs/theory.md).
+    [long, value_name = "D"]
+    emission_nee_distance: f64, optional = None, length;
 }
 
 /// A rejected setting: the key (as in the scene file) and the reason.

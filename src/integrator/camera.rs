@@ -8,7 +8,7 @@
 //! collision the path goes on with the free-flight weight).
 
 use super::direct::surface_direct;
-use super::single::single_scattering;
+use super::single::{media_single_scattering, single_scattering};
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::Estimate;
@@ -63,6 +63,9 @@ pub(crate) struct CameraPass {
     pub hybrid: bool,
     /// Next-event estimates per eye vertex (hybrid), averaged.
     pub direct_samples: u32,
+    /// The hybrid's next-event estimation of emitting media covers their points at least this
+    /// far from the receiver (infinite: none; `PhotonPass::media_near`).
+    pub media_near: f32,
 }
 
 #[cfg(feature = "profile")]
@@ -149,8 +152,8 @@ impl<F> PhotonEye<'_, F> {
     /// gathered there (one more event) after the path's specular bounces, keeps the whole path
     /// within the bounce limit. The hybrid leaves light straight from the lights (k = 0) to
     /// next-event estimation: its photon pass stores no such photon (`PhotonPass::skip_direct`),
-    /// so every stored photon is gathered — those a medium emitted from their first event on,
-    /// since next-event estimation does not sample emitting media.
+    /// nor a medium's photon whose first event lies at least `media_near` from where it was
+    /// emitted, so every stored photon is gathered.
     fn bounces(&self, path: &EyePath) -> BounceRange {
         let room = path.max_bounces.saturating_sub(1 + path.depth);
         BounceRange { min: 0, max: room.min(u16::MAX as u32) as u16 }
@@ -172,8 +175,14 @@ impl<F> PhotonEye<'_, F> {
         let segment = EyeSegment { o: path.o, w: path.d, t_max };
         let scene = path.scene;
         let n = self.pass.direct_samples;
+        let near = self.pass.media_near;
         let sum = (0..n).fold(Rgb::ZERO, |l, _| {
-            l + single_scattering(scene, self.maps.lights, &segment, (id, m), tr, &mut path.s)
+            let s = &mut path.s;
+            let mut c = single_scattering(scene, self.maps.lights, &segment, (id, m), tr, s);
+            if near.is_finite() {
+                c += media_single_scattering(scene, &segment, (id, m), tr, near, s);
+            }
+            l + c
         });
         sum / n as f32
     }
@@ -231,8 +240,9 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
         if self.pass.hybrid {
             let scene = path.scene;
             let (lights, medium) = (self.maps.lights, path.medium);
-            path.l +=
-                path.beta * surface_direct(scene, lights, hit, wo, material, medium, &mut path.s);
+            let near = self.pass.media_near;
+            let s = &mut path.s;
+            path.l += path.beta * surface_direct(scene, lights, hit, wo, material, medium, near, s);
         }
         let bounces = self.bounces(path);
         let e = (self.at_diffuse)(hit.p, n, material.diffuse_f(), path.beta, bounces);

@@ -11,6 +11,7 @@ use crate::accel::{Hit, Passage};
 use crate::math::{Rgb, offset_origin, ray_offset};
 use crate::rng::Sampler;
 use crate::scene::Scene;
+use crate::scene::light::media::EmitterPoint;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
 use glam::Vec3;
@@ -142,6 +143,55 @@ pub(crate) fn next_event(
     fv * ls.value * shadow(scene, p, ls.wi, ls.dist, medium, s) * (weight / p_light)
 }
 
+/// Next-event estimate of the light that emitting media send to the receiver at `x` (in
+/// `medium`) straight from their points at least `near` away: a point p of the media drawn by
+/// emission ([`EmissiveMedia::sample_point`](crate::scene::light::media::EmissiveMedia::sample_point)),
+/// connected by a shadow ray through pass-through interfaces,
+///
+///   f(ω) σ_a(p) L_e(p) T(x, p) / (|p − x|² pdf(p)),  ω = (p − x)/|p − x|,
+///
+/// with `f(ω)` the BSDF·cos or phase function (times σ_s) at the receiver. Points nearer than
+/// `near` count zero: their light is left to the photons (`PhotonPass::media_near`), because
+/// the 1/|p − x|² of a receiver inside or touching an emitting medium would give this estimate
+/// infinite variance (docs/theory.md, "Next-event estimation towards emitting media").
+pub(crate) fn media_next_event(
+    scene: &Scene,
+    x: Vec3,
+    medium: Option<u32>,
+    near: f32,
+    s: &mut Sampler,
+    f: impl Fn(Vec3) -> Rgb,
+) -> Rgb {
+    let Some(e) = scene.emissive_media.sample_point(scene, s) else { return Rgb::ZERO };
+    media_connection(scene, x, &e, medium, near, s, f) / e.pdf
+}
+
+/// f(ω) σ_a(p) L_e(p) T(x, p) / |p − x|² for the emitter point `e` seen from `x` (in `medium`),
+/// zero if it is nearer than `near` (see [`media_next_event`]); to be divided by the densities of
+/// the point (and of `x`).
+pub(crate) fn media_connection(
+    scene: &Scene,
+    x: Vec3,
+    e: &EmitterPoint,
+    medium: Option<u32>,
+    near: f32,
+    s: &mut Sampler,
+    f: impl Fn(Vec3) -> Rgb,
+) -> Rgb {
+    let to = e.p - x;
+    let dist2 = to.length_squared();
+    if !(dist2 >= near * near && dist2 > 0.0) {
+        return Rgb::ZERO;
+    }
+    let dist = dist2.sqrt();
+    let wi = to / dist;
+    let fv = f(wi);
+    if fv.max_element() <= 0.0 {
+        return Rgb::ZERO;
+    }
+    fv * e.f * shadow(scene, x, wi, dist, medium, s) / dist2
+}
+
 /// The first surface that is not pass-through along `o + t d` (starting in `medium`), if it is
 /// an emitter facing the ray, and the transmittance up to it; `None` if nothing is hit, the
 /// surface does not emit towards the ray, or no light gets through. For the direct light a
@@ -168,7 +218,9 @@ fn emitter_hit(
 /// Direct light at a diffuse surface point `hit` (seen from direction `wo`, in medium `medium`):
 /// next-event estimation and BSDF sampling of the emitters, combined by MIS (power heuristic), as
 /// the path tracer does at its diffuse vertices, but without following the sampled direction
-/// further than the emitter it may reach straight away.
+/// further than the emitter it may reach straight away; and the light of emitting media from
+/// their points at least `media_near` away ([`media_next_event`]; infinite: none).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn surface_direct(
     scene: &Scene,
     lights: &LightSampler,
@@ -176,20 +228,18 @@ pub(crate) fn surface_direct(
     wo: Vec3,
     material: &Material,
     medium: Option<u32>,
+    media_near: f32,
     s: &mut Sampler,
 ) -> Rgb {
     let ng = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
     let r = Receiver::surface(offset_origin(hit.p, ng, ng), ng);
     let (hit_ng, hit_ns) = (hit.ng, hit.ns);
-    let l = next_event(
-        scene,
-        lights,
-        &r,
-        medium,
-        s,
-        |wi| material.eval(wo, wi, hit_ng, hit_ns, Transport::Radiance),
-        |wi| material.pdf(wo, wi, hit_ng, hit_ns),
-    );
+    let f = |wi| material.eval(wo, wi, hit_ng, hit_ns, Transport::Radiance);
+    let mut l =
+        next_event(scene, lights, &r, medium, s, f, |wi| material.pdf(wo, wi, hit_ng, hit_ns));
+    if media_near.is_finite() {
+        l += media_next_event(scene, r.p, medium, media_near, s, f);
+    }
     if !lights.has_area_lights() {
         return l;
     }

@@ -32,6 +32,10 @@ pub(crate) struct PhotonMapper {
     hybrid: bool,
     /// Next-event estimates per eye vertex in the hybrid.
     direct_samples: u32,
+    /// The hybrid's light of emitting media from points at least this far from the receiver is
+    /// estimated by next-event estimation, nearer light by photons (infinite: all by photons;
+    /// so without emitting media or without the hybrid).
+    media_near: f32,
     kernel: Kernel,
     estimate: VolumeEstimate,
     beam_cell_budget: Option<u32>,
@@ -65,6 +69,14 @@ impl PhotonMapper {
             max_bounces: settings.max_bounces,
             hybrid: settings.integrator == Integrator::Hybrid,
             direct_samples: settings.direct_samples,
+            media_near: match settings.emission_nee_distance {
+                Some(d)
+                    if settings.integrator == Integrator::Hybrid && scene.has_emissive_media() =>
+                {
+                    d as f32
+                }
+                _ => f32::INFINITY,
+            },
             kernel: settings.kernel,
             estimate: settings.volume_estimate,
             beam_cell_budget: settings.beam_cell_budget,
@@ -166,6 +178,7 @@ impl PhotonMapper {
             paths,
             max_bounces: self.max_bounces,
             skip_direct: self.hybrid,
+            media_near: self.media_near,
             record,
         }
     }
@@ -344,6 +357,7 @@ impl PhotonMapper {
             estimate: self.estimate,
             hybrid: self.hybrid,
             direct_samples: self.direct_samples,
+            media_near: self.media_near,
         }
     }
 }

@@ -35,8 +35,11 @@ pub struct PhotonPass {
     /// stored at each of its first `max_bounces` scattering vertices at most.
     pub max_bounces: u32,
     /// Store no photon at a light path's first event (light straight from the light), which the
-    /// hybrid integrator estimates by next-event estimation instead.
+    /// hybrid integrator estimates by next-event estimation instead …
     pub skip_direct: bool,
+    /// … and for light paths from emitting media, none at a first event at least this far from
+    /// the point of emission (infinite: all are stored), which next-event estimation covers.
+    pub media_near: f32,
     /// Record each path's light and guided uniforms, and each photon's path (the guiding pilot).
     pub record: bool,
 }
@@ -93,9 +96,15 @@ const ALWAYS_STORED: f32 = 32.0;
 /// for the ~1000 events of an albedo-0.999 random walk, at most ~280 under the largest bounce
 /// limit. Memory per iteration stays within light paths × a small constant, and paths of up to
 /// 32 events — nearly every path outside dense, high-albedo media — keep every photon.
-fn stored(path: &mut LightPath, pass: &PhotonPass) -> Option<f32> {
-    if pass.skip_direct && path.bounces == 0 && !path.from_medium {
-        return None;
+fn stored(path: &mut LightPath, pass: &PhotonPass, x: Vec3) -> Option<f32> {
+    if pass.skip_direct && path.bounces == 0 {
+        match path.emitted_at {
+            None => return None,
+            Some(o) if (x - o).length_squared() >= pass.media_near * pass.media_near => {
+                return None;
+            }
+            Some(_) => {}
+        }
     }
     let q = (ALWAYS_STORED / (path.bounces as f32 + 1.0)).min(1.0);
     if q >= 1.0 {
@@ -120,9 +129,10 @@ struct LightPath {
     /// interfaces are not events), and pass-through crossings.
     bounces: u32,
     crossings: u32,
-    /// Emitted by a medium: its light is not what next-event estimation gathers, so even its
-    /// first event stores a photon in the hybrid.
-    from_medium: bool,
+    /// Where a medium emitted it (`None` for a light's): in the hybrid its first event stores a
+    /// photon if it lies nearer than `PhotonPass::media_near`, the light next-event estimation
+    /// leaves to photons.
+    emitted_at: Option<Vec3>,
 }
 
 /// What the photon did at a step.
@@ -172,7 +182,7 @@ fn trace_path(
                 medium: Some(e.medium),
                 bounces: 0,
                 crossings: 0,
-                from_medium: true,
+                emitted_at: Some(e.p),
             };
             follow(scene, pass, path, out);
             return;
@@ -210,8 +220,8 @@ fn trace_path(
     let o = if e.n == Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
     let medium = scene.light_media[li];
     let index = index as u32;
-    let (bounces, crossings, from_medium) = (0, 0, false);
-    let path = LightPath { index, s, o, d: e.d, beta, medium, bounces, crossings, from_medium };
+    let (bounces, crossings, emitted_at) = (0, 0, None);
+    let path = LightPath { index, s, o, d: e.d, beta, medium, bounces, crossings, emitted_at };
     follow(scene, pass, path, out);
 }
 
@@ -257,7 +267,7 @@ fn collide(
     // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s. Where
     // σ_s = 0 the photon could only ever be weighted by zero: skip it.
     if sigma_s.max_element() > 0.0 {
-        if let Some(scale) = stored(path, pass) {
+        if let Some(scale) = stored(path, pass, p) {
             let bounces = path.bounces as u16;
             let beta = path.beta * scale;
             out.volume.push(VolumePhoton { p, d, beta, medium: id as u16, bounces });
@@ -307,7 +317,7 @@ fn at_surface(
     if material.is_diffuse() {
         // Power convention (see `Photon`): store the path throughput as it arrives.
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-        if let Some(scale) = stored(path, pass) {
+        if let Some(scale) = stored(path, pass, hit.p) {
             let (beta, bounces) = (path.beta * scale, path.bounces as u16);
             out.surface.push(Photon { p: hit.p, n, beta, bounces });
             if pass.record {
