@@ -102,6 +102,30 @@ def half():
     write("half/cube.vdb", [g])
 
 
+def vector():
+    """albedo.vdb's three channels as one 3-vector grid `albedo` beside its density, as Houdini
+    and Blender write colour (`Cd`, `color`): vector.vdb in full floats and half/vector.vdb in
+    half floats (saveFloatAsHalf: 6 bytes a value)."""
+    channels = [
+        lambda i, j, k: 0.1 + 0.8 * i / 15.0,
+        lambda i, j, k: 0.9 - 0.8 * j / 15.0,
+        lambda i, j, k: 0.1 + 0.8 * k / 15.0,
+    ]
+    for path, as_half in [("vector.vdb", False), ("half/vector.vdb", True)]:
+        g = grid(voxel=1.0 / 16.0)
+        set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
+        v = vdb.Vec3SGrid((0.0, 0.0, 0.0))
+        v.name = "albedo"
+        v.transform = vdb.createLinearTransform(voxelSize=1.0 / 16.0)
+        acc = v.getAccessor()
+        for i in range(16):
+            for j in range(16):
+                for k in range(16):
+                    acc.setValueOn((i, j, k), tuple(f(i, j, k) for f in channels))
+        v.saveFloatAsHalf = as_half
+        write(path, [g, v])
+
+
 def main():
     # 1. A smooth procedural cloud, 64^3 voxels over [-1, 1]^3 (voxel 1/32).
     g = grid(voxel=1.0 / 32.0, origin=(-1.0, -1.0, -1.0))
@@ -154,6 +178,8 @@ def main():
     tiles()
 
     half()
+
+    vector()
 
     # --- Files vdb-rs 0.6 would mishandle --------------------------------------------------
     # A vector grid named "density": vdb-rs would read its bytes as floats.

@@ -106,11 +106,13 @@ pub mod fuzzing {
         crate::medium::vdbscan::scan(crate::medium::vdbscan::Input::Memory(bytes), grid)
     }
 
-    /// The OpenVDB loader (pre-scan, vdb-rs, checks, dense copy) on a file's bytes, grid
-    /// `density`.
+    /// The OpenVDB loader (header check, vdb-rs on the header, haze's tree reader, checks, the
+    /// copy) on a file's bytes: grid `density`, then component 1 of a vector grid `albedo`.
     pub fn vdb(bytes: &[u8]) -> crate::Result<()> {
-        crate::medium::grid::DensityGrid::from_bytes(bytes, Path::new("fuzz.vdb"), "density")
-            .map(|_| ())
+        let path = Path::new("fuzz.vdb");
+        let density = crate::medium::grid::DensityGrid::from_bytes(bytes, path, "density");
+        crate::medium::grid::DensityGrid::from_bytes(bytes, path, "albedo[1]")?;
+        density.map(|_| ())
     }
 }
 /// The README's examples, compiled (and the runnable ones run) by `cargo test --doc`.

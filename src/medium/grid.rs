@@ -402,9 +402,14 @@ fn read_header<'a, R: Read + Seek>(
         Ok(Err(e)) => return Err(err(format!("cannot read the file header: {e}"))),
         Err(_) => return Err(err("cannot read the file header (corrupt or unsupported)".into())),
     };
-    check_names(&vdb, path, name)?;
-    let gd = check_grid(&vdb, path, name)?;
-    let t = super::vdbscan::transform(input, name)
+    // `NAME[k]`: component k of vector grid NAME, unless a grid has that very name.
+    let (grid, component) = match split_component(name) {
+        (base, Some(k)) if !vdb.grid_descriptors.contains_key(name) => (base, Some(k)),
+        _ => (name, None),
+    };
+    check_names(&vdb, path, grid)?;
+    let gd = check_grid(&vdb, path, grid, component)?;
+    let t = super::vdbscan::transform(input, grid)
         .map_err(|e| volume_error(path, format!("grid `{name}`: {e}")))?;
     let Some((translation, voxel_size)) = t.place else {
         return Err(err(format!(
@@ -422,7 +427,19 @@ fn read_header<'a, R: Read + Seek>(
         Some(vdb_rs::MetadataValue::I64(n)) => Some(*n as u64),
         _ => None,
     };
-    Ok(ReadGrid { input, translation, voxel_size, expected })
+    let (grid, component) = (grid.to_string(), component.unwrap_or(0));
+    Ok(ReadGrid { input, grid, component, translation, voxel_size, expected })
+}
+
+/// A grid name and the component its suffix `[0]`, `[1]` or `[2]` names, if it has one.
+fn split_component(name: &str) -> (&str, Option<usize>) {
+    for (k, suffix) in ["[0]", "[1]", "[2]"].iter().enumerate() {
+        match name.strip_suffix(suffix) {
+            Some(base) if !base.is_empty() => return (base, Some(k)),
+            _ => {}
+        }
+    }
+    (name, None)
 }
 
 /// Refuses grids that share a name (vdb-rs would keep only one), and names suffixed by OpenVDB
@@ -453,11 +470,13 @@ fn check_names<R: Read + Seek>(vdb: &vdb_rs::VdbReader<R>, path: &Path, name: &s
     Ok(())
 }
 
-/// The descriptor of float grid `name`, refused if it is another type or an instance.
+/// The descriptor of grid `name`, refused if it is an instance or not of the type asked for: a
+/// float grid, or with a `component`, a 3-vector grid.
 fn check_grid<R: Read + Seek>(
     vdb: &vdb_rs::VdbReader<R>,
     path: &Path,
     name: &str,
+    component: Option<usize>,
 ) -> Result<vdb_rs::GridDescriptor> {
     let err = |m: String| volume_error(path, m);
     let Some(gd) = vdb.grid_descriptors.get(name).cloned() else {
@@ -465,11 +484,29 @@ fn check_grid<R: Read + Seek>(
         names.sort();
         return Err(err(format!("no grid named `{name}` (the file has {names:?})")));
     };
-    if gd.grid_type.strip_suffix("_HalfFloat").unwrap_or(&gd.grid_type) != "Tree_float_5_4_3" {
-        return Err(err(format!(
-            "grid `{name}` is of type {}, not a float grid (Tree_float_5_4_3)",
-            gd.grid_type
-        )));
+    let ty = gd.grid_type.strip_suffix("_HalfFloat").unwrap_or(&gd.grid_type);
+    match (ty, component) {
+        ("Tree_float_5_4_3", None) | ("Tree_vec3s_5_4_3", Some(_)) => {}
+        ("Tree_vec3s_5_4_3", None) => {
+            return Err(err(format!(
+                "grid `{name}` is a vector grid ({}); name one of its components as \
+                 `{name}[0]`, `{name}[1]` or `{name}[2]`, or give a float grid",
+                gd.grid_type
+            )));
+        }
+        (_, None) => {
+            return Err(err(format!(
+                "grid `{name}` is of type {}, not a float grid (Tree_float_5_4_3)",
+                gd.grid_type
+            )));
+        }
+        (_, Some(_)) => {
+            return Err(err(format!(
+                "grid `{name}` is of type {}, not a vector grid (Tree_vec3s_5_4_3) with \
+                 components",
+                gd.grid_type
+            )));
+        }
     }
     if !gd.instance_parent.is_empty() {
         return Err(err(format!("grid `{name}` is an instance of another grid; not supported")));
@@ -481,6 +518,9 @@ fn check_grid<R: Read + Seek>(
 /// active-voxel count the file states.
 struct ReadGrid<'a> {
     input: Input<'a>,
+    /// The grid's name in the file, and the component read (0 for a float grid).
+    grid: String,
+    component: usize,
     translation: Vec3,
     voxel_size: Vec3,
     expected: Option<u64>,
@@ -497,7 +537,7 @@ fn for_each_item(
     // The callers' arithmetic on what a corrupt file says (origins near the ends of i32) could
     // panic: contained, and reported.
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        super::vdbscan::for_each_value(read.input, name, &mut |p, edge, v| {
+        super::vdbscan::for_each_value(read.input, &read.grid, read.component, &mut |p, edge, v| {
             f(IVec3::from(p), edge, v)
         })
     }));
@@ -792,6 +832,38 @@ mod tests {
         assert!(nonzero > 500, "{nonzero} voxels compared");
     }
 
+    /// The components of a 3-vector grid (`albedo[k]` of media/vector.vdb, as Houdini and
+    /// Blender write colour) read as the float grids they were made from (albedo.vdb's
+    /// `albedo.r`, `.g`, `.b`): every voxel bit for bit in full floats, rounded to half in
+    /// half/vector.vdb (6 bytes a value). A decoder that took the wrong component or stride fails
+    /// it; vector grids without a component and components of float grids are refused by name.
+    #[test]
+    fn vector_grids_read_component_by_component() {
+        for (k, channel) in ["albedo.r", "albedo.g", "albedo.b"].iter().enumerate() {
+            let float = DensityGrid::load(&media("albedo.vdb"), channel).unwrap();
+            let name = format!("albedo[{k}]");
+            let full = DensityGrid::load(&media("vector.vdb"), &name).unwrap();
+            assert_eq!((full.origin, full.dims), (float.origin, float.dims), "{name}");
+            assert_eq!((full.translation, full.voxel_size), (float.translation, float.voxel_size));
+            assert_eq!(full.active_voxels, 4096);
+            let (lo, hi) = float.active_box;
+            for z in lo.z..=hi.z {
+                for y in lo.y..=hi.y {
+                    for x in lo.x..=hi.x {
+                        let p = IVec3::new(x, y, z);
+                        assert_eq!(full.voxel(p).to_bits(), float.voxel(p).to_bits(), "{name} {p}");
+                    }
+                }
+            }
+            let half = DensityGrid::load(&media("half/vector.vdb"), &name).unwrap();
+            assert_half_of(&half, &float);
+        }
+        expect_error(&media("vector.vdb"), "albedo", &["vector grid", "`albedo[0]`"]);
+        expect_error(&media("vector.vdb"), "density[1]", &["not a vector grid"]);
+        expect_error(&media("vector.vdb"), "albedo[3]", &["no grid named `albedo[3]`"]);
+        expect_error(&media("bad/vector.vdb"), "density", &["vector grid"]);
+    }
+
     #[test]
     fn half_float_grids_are_their_full_float_sources_rounded() {
         // vdb-rs 0.6 fails on every one of these (it reads a block size where OpenVDB wrote
@@ -843,7 +915,7 @@ mod tests {
                 oracle.sort();
                 for input in [Input::File(&path), Input::Memory(&bytes)] {
                     let mut ours = Vec::new();
-                    super::super::vdbscan::for_each_value(input, &name, &mut |p, edge, v| {
+                    super::super::vdbscan::for_each_value(input, &name, 0, &mut |p, edge, v| {
                         ours.push((p, edge, v.to_bits()))
                     })
                     .unwrap();
@@ -858,7 +930,7 @@ mod tests {
 
     #[test]
     fn files_vdb_rs_would_crash_on_or_misread_are_clear_errors() {
-        expect_error(&media("bad/vector.vdb"), "density", &["not a float grid"]);
+        expect_error(&media("bad/vector.vdb"), "density", &["is a vector grid"]);
         expect_error(&media("bad/affine.vdb"), "density", &["AffineMap"]);
         expect_error(&media("bad/duplicate.vdb"), "density", &["share the name"]);
         // One active root-level tile (4096³ voxels, which vdb-rs drops): read, and too large.

@@ -203,13 +203,26 @@ struct Descriptor {
     half: bool,
 }
 
-/// The grid type of a float tree, and the suffix OpenVDB appends to it for half-float grids.
+/// The grid types of float and 3-vector trees, and the suffix OpenVDB appends for half floats.
 const FLOAT_TREE: &[u8] = b"Tree_float_5_4_3";
+const VEC3_TREE: &[u8] = b"Tree_vec3s_5_4_3";
 const HALF_SUFFIX: &[u8] = b"_HalfFloat";
 
 impl Descriptor {
-    fn is_float_tree(&self) -> bool {
-        self.grid_type == FLOAT_TREE || self.grid_type.strip_suffix(HALF_SUFFIX) == Some(FLOAT_TREE)
+    /// Floats per value: 1 for a float tree, 3 for a vector tree, `None` for other types.
+    fn components(&self) -> Option<usize> {
+        match self.grid_type.strip_suffix(HALF_SUFFIX).unwrap_or(&self.grid_type) {
+            FLOAT_TREE => Some(1),
+            VEC3_TREE => Some(3),
+            _ => None,
+        }
+    }
+
+    /// Bytes of a value as stored in nodes' blocks (half or full floats) and as stored in full
+    /// (background, tiles of the root, inactive values).
+    fn value_bytes(&self) -> (usize, usize) {
+        let k = self.components().unwrap_or(1);
+        (k * if self.half { 2 } else { 4 }, 4 * k)
     }
 }
 
@@ -257,7 +270,7 @@ pub(crate) fn check_header(input: Input, grid: &str) -> Result<(), ScanError> {
 pub(crate) fn scan(input: Input, grid: &str) -> Result<(), ScanError> {
     let (mut c, found) = locate(input, grid)?;
     match found {
-        Some(d) if d.is_float_tree() => walk(&mut c, &d, &mut |_| Ok(())),
+        Some(d) if d.components().is_some() => walk(&mut c, &d, &mut |_| Ok(())),
         _ => Ok(()),
     }
 }
@@ -330,11 +343,13 @@ struct Node<'b> {
     values: Values<'b>,
 }
 
-/// A node's values as stored: `count` values of `size` bytes (the active ones, or all `n`).
+/// A node's values as stored: `count` values of `size` bytes (the active ones, or all `n`), each
+/// `size / scalar` floats of `scalar` bytes.
 struct Values<'b> {
     n: usize,
     count: usize,
     size: usize,
+    scalar: usize,
     codec: Codec,
     block: &'b [u8],
 }
@@ -367,16 +382,22 @@ fn walk(
     if c.u32("buffer count")? != 1 {
         return c.fail("multi-buffer trees are not supported");
     }
-    c.skip(4, "background value")?;
+    let full = d.value_bytes().1;
+    c.skip(full as u64, "background value")?;
     let tiles = c.u32("root tile count")?;
     let roots = c.u32("root child count")?;
     // Root tiles: origin, full-size value, active flag.
-    c.check(tiles as u64 * 17, "root tiles")?;
+    let record = 12 + full + 1;
+    c.check(tiles as u64 * record as u64, "root tiles")?;
+    let mut t = [0u8; 12 + 12 + 1];
     for _ in 0..tiles {
-        let t: [u8; 17] = c.array("root tile")?;
-        if t[16] != 0 {
-            let values = Values { n: 1, count: 1, size: 4, codec: Codec::Raw, block: &t[12..16] };
-            visit(Node { origin: origin_of(&t), log2: 0, active: &[1], children: &[], values })?;
+        let t = &mut t[..record];
+        c.read(t, "root tile")?;
+        if t[record - 1] != 0 {
+            let (size, scalar) = (full, 4);
+            let block = &t[12..12 + full];
+            let values = Values { n: 1, count: 1, size, scalar, codec: Codec::Raw, block };
+            visit(Node { origin: origin_of(t), log2: 0, active: &[1], children: &[], values })?;
         }
     }
     // Topology: per root child, a 32³ internal node, its 16³ children, their 8³ leaves' masks.
@@ -448,12 +469,13 @@ fn values<'b>(
         5 => 2,
         _ => 0,
     };
-    c.skip(inactive * 4, "inactive values")?;
+    let (size, full) = d.value_bytes();
+    c.skip(inactive * full as u64, "inactive values")?;
     if matches!(meta, 3..=5) {
         c.skip((n / 8) as u64, "selection mask")?;
     }
     let count = if d.compression & ACTIVE_MASK != 0 && meta != 6 { active } else { n };
-    let size = if d.half { 2 } else { 4 };
+    let scalar = if d.half { 2 } else { 4 };
     let bytes = (count * size) as u64;
     let compressed = d.compression & (BLOSC | ZIP) != 0;
     // The stored length: OpenVDB writes nothing for an empty half-float block (see the module's
@@ -508,7 +530,7 @@ fn values<'b>(
             }));
         }
     }
-    Ok(Values { n, count, size, codec, block })
+    Ok(Values { n, count, size, scalar, codec, block })
 }
 
 /// A grid's transform: its map's name and, for the maps haze reads (uniform scale,
@@ -565,16 +587,22 @@ pub(crate) fn transform(input: Input, grid: &str) -> Result<Transform, ScanError
 }
 
 /// Calls `f(first voxel, edge length in voxels, value)` for every active voxel and tile (root
-/// tiles included) of float grid `grid` (full or half floats), decoding the file's bytes; every
-/// count and length is checked as [`scan`] does.
+/// tiles included) of grid `grid` (full or half floats), decoding the file's bytes; every count
+/// and length is checked as [`scan`] does. The value is the float of a float grid, or component
+/// `component` (0, 1, 2) of a vector grid's.
 pub(crate) fn for_each_value(
     input: Input,
     grid: &str,
+    component: usize,
     f: &mut dyn FnMut([i32; 3], i32, f32),
 ) -> Result<(), ScanError> {
     let (mut c, Some(d)) = locate(input, grid)? else {
         return Err(format!("no grid named `{grid}`"));
     };
+    let k = d.components().ok_or_else(|| format!("grid `{grid}` is not a float or vector grid"))?;
+    if component >= k {
+        return Err(format!("grid `{grid}` has no component {component}"));
+    }
     let mut values = Vec::new();
     let mut raw = Vec::new();
     walk(&mut c, &d, &mut |node| {
@@ -588,12 +616,13 @@ pub(crate) fn for_each_value(
         decode(&node.values, &mut raw, &mut values)?;
         let dim = 1i32 << node.log2;
         let is_child = |i: usize| node.children.get(i / 8).is_some_and(|b| b & (1 << (i % 8)) != 0);
-        for (k, i) in ones(node.active).enumerate() {
+        for (n, i) in ones(node.active).enumerate() {
             if is_child(i) {
                 continue;
             }
             // All values stored, or only the active ones, in order.
-            let v = if node.values.count == node.values.n { values[i] } else { values[k] };
+            let at = if node.values.count == node.values.n { i } else { n };
+            let v = values[at * k + component];
             let origin = if node.log2 == 0 {
                 node.origin
             } else {
@@ -634,7 +663,7 @@ fn decode(v: &Values, raw: &mut Vec<u8>, out: &mut Vec<f32>) -> Result<(), ScanE
     if data.len() != bytes {
         return Err(format!("a block of {} bytes for {} values", data.len(), v.count));
     }
-    match v.size {
+    match v.scalar {
         2 => out
             .extend(data.chunks_exact(2).map(|b| half::f16::from_le_bytes([b[0], b[1]]).to_f32())),
         _ => out.extend(data.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))),

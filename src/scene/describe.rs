@@ -263,8 +263,8 @@ impl MediumDesc {
         self
     }
 
-    /// Grid media: emitted radiance `scale` × (R, G, B) read from three float grids of the file
-    /// (OpenVDB's vector grids cannot be read; export their channels as float grids).
+    /// Grid media: emitted radiance `scale` × (R, G, B) read from three float grids of the file,
+    /// or from the components of a vector grid, named `["Cd[0]", "Cd[1]", "Cd[2]"]`.
     pub fn emission_grid(mut self, grids: [&str; 3], scale: f32) -> Self {
         if let MediumDesc::Vdb { emission_grid, .. } = &mut self {
             *emission_grid = Some(Box::new((grids.map(str::to_string), scale)));
@@ -273,8 +273,8 @@ impl MediumDesc {
     }
 
     /// Grid media: single-scattering albedo `scale` × (R, G, B) read from three float grids of
-    /// the file (each value times `scale` at most 1), in place of the constant albedo: σ_s(p) =
-    /// albedo(p) σ_t(p). The extinction σ_t stays as [`Self::coefficients`] or
+    /// the file or a vector grid's components (`NAME[0]`, `NAME[1]`, `NAME[2]`; each value times
+    /// `scale` at most 1), in place of the constant albedo: σ_s(p) = albedo(p) σ_t(p). The extinction σ_t stays as [`Self::coefficients`] or
     /// [`Self::albedo_extinction`] set it.
     pub fn albedo_grid(mut self, grids: [&str; 3], scale: f32) -> Self {
         if let MediumDesc::Vdb { albedo_grid, .. } = &mut self {

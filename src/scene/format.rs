@@ -124,8 +124,26 @@ pub struct TemperatureDef {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EmissionGridDef {
-    pub grids: [String; 3],
+    pub grids: GridNames,
     pub scale: Option<f32>,
+}
+
+/// Three float grids (R, G, B), or one 3-vector grid whose components are the channels.
+#[derive(Debug, Deserialize, Clone)]
+#[serde(untagged)]
+pub enum GridNames {
+    Channels([String; 3]),
+    Vector(String),
+}
+
+impl GridNames {
+    /// The three channels' grid names: a vector grid's as `NAME[0]`, `NAME[1]`, `NAME[2]`.
+    pub fn channels(&self) -> [String; 3] {
+        match self {
+            GridNames::Channels(c) => c.clone(),
+            GridNames::Vector(n) => [0, 1, 2].map(|k| format!("{n}[{k}]")),
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]

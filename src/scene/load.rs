@@ -254,11 +254,11 @@ fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium
         emission_grid: d
             .emission_grid
             .as_ref()
-            .map(|e| Box::new((e.grids.clone(), e.scale.unwrap_or(1.0)))),
+            .map(|e| Box::new((e.grids.channels(), e.scale.unwrap_or(1.0)))),
         albedo_grid: d
             .albedo_grid
             .as_ref()
-            .map(|e| Box::new((e.grids.clone(), e.scale.unwrap_or(1.0)))),
+            .map(|e| Box::new((e.grids.channels(), e.scale.unwrap_or(1.0)))),
         layout: match d.layout {
             None | Some(LayoutDef::Auto) => GridLayout::Auto,
             Some(LayoutDef::Dense) => GridLayout::Dense,

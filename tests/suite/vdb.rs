@@ -133,3 +133,49 @@ fn dense_and_brick_layouts_render_the_same_image() {
         "{msg}"
     );
 }
+
+/// A colour grid given as one 3-vector grid (`grids = "albedo"`, media/vector.vdb, as Houdini and
+/// Blender write colour) renders the same pixels, bit for bit, as the same channels given as
+/// three float grids (media/albedo.vdb), with the hybrid and the path tracer; a float grid where
+/// a vector grid is named is refused with the key.
+#[test]
+fn a_vector_grid_is_a_colour_grid() {
+    use haze::progress::Silent;
+    use haze::settings::Integrator;
+    use std::sync::atomic::AtomicBool;
+    let media = Path::new(env!("CARGO_MANIFEST_DIR")).join("media");
+    let scene = |file: &str, grids: &str| {
+        let text = format!(
+            "[camera]\ntype = \"perspective\"\nposition = [0.5, 0.5, 2.5]\nlook_at = [0.5, 0.5, 0.5]\n\
+             fov = 30\nresolution = [24, 24]\n\n\
+             [media.m]\ntype = \"vdb\"\nfile = \"{file}\"\nsigma_a = 1\nsigma_s = 3\n\
+             albedo_grid = {{ grids = {grids} }}\n\n\
+             [materials.air]\ntype = \"interface\"\n\n\
+             [[shapes]]\ntype = \"box\"\nsize = [1, 1, 1]\nmaterial = \"air\"\ninterior = \"m\"\n\
+             transform = {{ translate = [0.5, 0.5, 0.5] }}\n\n\
+             [[lights]]\ntype = \"point\"\nposition = [0.5, 2, 1.5]\npower = 40\n"
+        );
+        haze::Scene::from_toml(&text, &media.join("vector.toml"), &media)
+    };
+    let three = scene("albedo.vdb", "[\"albedo.r\", \"albedo.g\", \"albedo.b\"]").unwrap();
+    let vector = scene("vector.vdb", "\"albedo\"").unwrap();
+    for integrator in [Integrator::Hybrid, Integrator::Path] {
+        let render = |scene: &haze::Scene| {
+            let mut s = scene.settings.clone();
+            s.iterations = Some(2);
+            s.photons = 20_000;
+            s.integrator = integrator;
+            haze::render(scene, &s, &mut Silent, &AtomicBool::new(false)).unwrap()
+        };
+        let (a, b) = (render(&three), render(&vector));
+        assert!(a.mean() > 0.0);
+        let same = a.pixels.iter().flatten().zip(b.pixels.iter().flatten()).all(|(x, y)| x == y);
+        assert!(same, "{integrator:?}: {} vs {}", a.mean(), b.mean());
+    }
+    let err = scene("vector.vdb", "\"density\"").err().expect("a float grid was taken as a vector");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("media.m.albedo_grid.grids") && msg.contains("not a vector grid"),
+        "{msg}"
+    );
+}
