@@ -101,11 +101,6 @@ pub mod fuzzing {
         crate::scene::shape::obj_from_bytes(bytes, Path::new("fuzz.obj")).map(|_| ())
     }
 
-    /// The structural pre-scan of OpenVDB bytes alone (see `src/medium/vdbscan.rs`).
-    pub fn vdb_scan(bytes: &[u8], grid: &str) -> Result<(), String> {
-        crate::medium::vdbscan::scan(crate::medium::vdbscan::Input::Memory(bytes), grid)
-    }
-
     /// The OpenVDB loader (header check, vdb-rs on the header, haze's tree reader, checks, the
     /// copy) on a file's bytes: grid `density`, then component 1 of a vector grid `albedo`.
     pub fn vdb(bytes: &[u8]) -> crate::Result<()> {

@@ -394,7 +394,7 @@ fn read_header<'a, R: Read + Seek>(
         return Err(err("not an OpenVDB file (bad magic number)".into()));
     }
     reader.rewind().map_err(|e| err(format!("cannot read: {e}")))?;
-    check_header(input, name).map_err(err)?;
+    let found = check_header(input, name).map_err(err)?;
     let opened =
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb_rs::VdbReader::new(reader)));
     let vdb = match opened {
@@ -402,15 +402,14 @@ fn read_header<'a, R: Read + Seek>(
         Ok(Err(e)) => return Err(err(format!("cannot read the file header: {e}"))),
         Err(_) => return Err(err("cannot read the file header (corrupt or unsupported)".into())),
     };
-    // `NAME[k]`: component k of vector grid NAME, unless a grid has that very name.
-    let (grid, component) = match split_component(name) {
-        (base, Some(k)) if !vdb.grid_descriptors.contains_key(name) => (base, Some(k)),
-        _ => (name, None),
-    };
+    // `NAME[k]`: component k of vector grid NAME, unless a grid has that very name. A grid
+    // haze's reader did not find is refused here with the file's grids.
+    let (grid, component) = found.as_ref().map_or((name, None), |f| (f.grid.as_str(), f.component));
     check_names(&vdb, path, grid)?;
     let gd = check_grid(&vdb, path, grid, component)?;
-    let t = super::vdbscan::transform(input, grid)
-        .map_err(|e| volume_error(path, format!("grid `{name}`: {e}")))?;
+    let Some(t) = found.as_ref().map(|f| &f.transform) else {
+        return Err(err(format!("grid `{name}`: not found by haze's reader (corrupt name?)")));
+    };
     let Some((translation, voxel_size)) = t.place else {
         return Err(err(format!(
             "grid `{name}` has an `{}` transform; haze reads uniform-scale and scale-translate \
@@ -429,17 +428,6 @@ fn read_header<'a, R: Read + Seek>(
     };
     let (grid, component) = (grid.to_string(), component.unwrap_or(0));
     Ok(ReadGrid { input, grid, component, translation, voxel_size, expected })
-}
-
-/// A grid name and the component its suffix `[0]`, `[1]` or `[2]` names, if it has one.
-fn split_component(name: &str) -> (&str, Option<usize>) {
-    for (k, suffix) in ["[0]", "[1]", "[2]"].iter().enumerate() {
-        match name.strip_suffix(suffix) {
-            Some(base) if !base.is_empty() => return (base, Some(k)),
-            _ => {}
-        }
-    }
-    (name, None)
 }
 
 /// Refuses grids that share a name (vdb-rs would keep only one), and names suffixed by OpenVDB
@@ -814,17 +802,23 @@ mod tests {
     /// Every voxel of `half` is that of `full` rounded to a 16-bit float (OpenVDB and the `half`
     /// crate both round to nearest even), in the same box and transform.
     fn assert_half_of(half: &DensityGrid, full: &DensityGrid) {
-        assert_eq!((half.origin, half.dims), (full.origin, full.dims));
-        assert_eq!((half.translation, half.voxel_size), (full.translation, full.voxel_size));
-        assert_eq!(half.active_voxels, full.active_voxels);
-        let (lo, hi) = full.active_box;
+        assert_voxels_of(half, full, |v| half::f16::from_f32(v).to_f32());
+    }
+
+    /// `got` has `want`'s box, placement and active voxels, and every voxel of the box is
+    /// `round` of `want`'s, bit for bit.
+    fn assert_voxels_of(got: &DensityGrid, want: &DensityGrid, round: fn(f32) -> f32) {
+        assert_eq!((got.origin, got.dims), (want.origin, want.dims));
+        assert_eq!((got.translation, got.voxel_size), (want.translation, want.voxel_size));
+        assert_eq!(got.active_voxels, want.active_voxels);
+        let (lo, hi) = want.active_box;
         let mut nonzero = 0;
         for z in lo.z..=hi.z {
             for y in lo.y..=hi.y {
                 for x in lo.x..=hi.x {
                     let p = IVec3::new(x, y, z);
-                    let want = half::f16::from_f32(full.voxel(p)).to_f32();
-                    assert_eq!(half.voxel(p), want, "voxel {p}");
+                    let want = round(want.voxel(p));
+                    assert_eq!(got.voxel(p).to_bits(), want.to_bits(), "voxel {p}");
                     nonzero += (want > 0.0) as usize;
                 }
             }
@@ -843,18 +837,8 @@ mod tests {
             let float = DensityGrid::load(&media("albedo.vdb"), channel).unwrap();
             let name = format!("albedo[{k}]");
             let full = DensityGrid::load(&media("vector.vdb"), &name).unwrap();
-            assert_eq!((full.origin, full.dims), (float.origin, float.dims), "{name}");
-            assert_eq!((full.translation, full.voxel_size), (float.translation, float.voxel_size));
             assert_eq!(full.active_voxels, 4096);
-            let (lo, hi) = float.active_box;
-            for z in lo.z..=hi.z {
-                for y in lo.y..=hi.y {
-                    for x in lo.x..=hi.x {
-                        let p = IVec3::new(x, y, z);
-                        assert_eq!(full.voxel(p).to_bits(), float.voxel(p).to_bits(), "{name} {p}");
-                    }
-                }
-            }
+            assert_voxels_of(&full, &float, |v| v);
             let half = DensityGrid::load(&media("half/vector.vdb"), &name).unwrap();
             assert_half_of(&half, &float);
         }

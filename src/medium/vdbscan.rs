@@ -255,24 +255,39 @@ fn metadata(c: &mut Cursor) -> Result<bool, ScanError> {
     Ok(half)
 }
 
-/// Checks the file header and every grid descriptor (what vdb-rs reads of the file), and that
-/// grid `grid`'s transform can be read.
-pub(crate) fn check_header(input: Input, grid: &str) -> Result<(), ScanError> {
-    let (mut c, found) = locate(input, grid)?;
-    if let Some(d) = found {
-        read_transform(&mut c, &d)?;
-    }
-    Ok(())
+/// A grid found by [`check_header`]: its name in the file, the component asked for (`None`: the
+/// grid's own values), and its transform.
+pub(crate) struct Found {
+    pub grid: String,
+    pub component: Option<usize>,
+    pub transform: Transform,
 }
 
-/// Walks grid `grid` whole without decoding its values (the structure only: what
-/// [`for_each_value`] checks before it decodes).
-pub(crate) fn scan(input: Input, grid: &str) -> Result<(), ScanError> {
-    let (mut c, found) = locate(input, grid)?;
-    match found {
-        Some(d) if d.components().is_some() => walk(&mut c, &d, &mut |_| Ok(())),
-        _ => Ok(()),
+/// Checks the file header and every grid descriptor (what vdb-rs reads of the file), and finds
+/// grid `name` — or, if no grid has that name and it ends in `[0]`, `[1]` or `[2]`, component k
+/// of the grid named by the rest — with its transform; `None` if there is none.
+pub(crate) fn check_header(input: Input, name: &str) -> Result<Option<Found>, ScanError> {
+    let (mut c, found) = locate(input, name)?;
+    if let Some(d) = found {
+        let transform = read_transform(&mut c, &d)?;
+        return Ok(Some(Found { grid: name.to_string(), component: None, transform }));
     }
+    let (base, Some(k)) = split_component(name) else { return Ok(None) };
+    let (mut c, found) = locate(input, base)?;
+    let Some(d) = found else { return Ok(None) };
+    let transform = read_transform(&mut c, &d)?;
+    Ok(Some(Found { grid: base.to_string(), component: Some(k), transform }))
+}
+
+/// A grid name and the component its suffix `[0]`, `[1]` or `[2]` names, if it has one.
+fn split_component(name: &str) -> (&str, Option<usize>) {
+    for (k, suffix) in ["[0]", "[1]", "[2]"].iter().enumerate() {
+        match name.strip_suffix(suffix) {
+            Some(base) if !base.is_empty() => return (base, Some(k)),
+            _ => {}
+        }
+    }
+    (name, None)
 }
 
 /// The header and descriptors, with a cursor and the descriptor of grid `grid` if there is one.
@@ -402,13 +417,13 @@ fn walk(
     }
     // Topology: per root child, a 32³ internal node, its 16³ children, their 8³ leaves' masks.
     let mut leaves: Vec<[i32; 3]> = Vec::new(); // leaf origins, in file order
-    let mut buffers = Buffers::default();
+    let mut block = Vec::new(); // a node's stored values, the allocation reused
     for _ in 0..roots {
         let origin5 = origin_of(&c.array::<12>("root child origin")?);
-        let children5 = node(c, d, 5, origin5, &mut buffers, visit)?;
+        let children5 = node(c, d, 5, origin5, &mut block, visit)?;
         for i in ones(&children5) {
             let origin4 = child_origin(origin5, 5, i, 128);
-            let children4 = node(c, d, 4, origin4, &mut buffers, visit)?;
+            let children4 = node(c, d, 4, origin4, &mut block, visit)?;
             let count = ones(&children4).count();
             c.skip(count as u64 * 64, "leaf masks")?;
             // Bounded: each leaf's data takes at least 65 bytes of the file.
@@ -419,16 +434,10 @@ fn walk(
     c.seek(d.block_pos, "the grid data position")?;
     for origin in leaves {
         let (active, words) = c.mask(512, "leaf value mask")?;
-        let values = values(c, d, 512, active, &mut buffers.block)?;
+        let values = values(c, d, 512, active, &mut block)?;
         visit(Node { origin, log2: 3, active: &words, children: &[], values })?;
     }
     Ok(())
-}
-
-/// Scratch space of the walk, reused from node to node.
-#[derive(Default)]
-struct Buffers {
-    block: Vec<u8>,
 }
 
 /// An internal node of `log2` dimension (masks and values), handed to `visit`: returns its child
@@ -438,13 +447,13 @@ fn node(
     d: &Descriptor,
     log2: u32,
     origin: [i32; 3],
-    buffers: &mut Buffers,
+    block: &mut Vec<u8>,
     visit: &mut dyn FnMut(Node) -> Result<(), ScanError>,
 ) -> Result<Vec<u8>, ScanError> {
     let n = 1usize << (3 * log2);
     let (_, children) = c.mask(n, "child mask")?;
     let (active, words) = c.mask(n, "value mask")?;
-    let values = values(c, d, n, active, &mut buffers.block)?;
+    let values = values(c, d, n, active, block)?;
     visit(Node { origin, log2, active: &words, children: &children, values })?;
     Ok(children)
 }
@@ -546,49 +555,31 @@ fn read_transform(c: &mut Cursor, d: &Descriptor) -> Result<Transform, ScanError
     c.u32("grid compression")?;
     metadata(c)?;
     let map: String = c.name("transform name")?.iter().map(|&b| b as char).collect();
+    // Uniform scale: scale values, voxel size, inverse scale, inverse scale², inverse twice
+    // scale; scale-translate: the translation first. Other maps have other layouts (vdb-rs
+    // would panic on them): the caller refuses them by name.
+    let translated = match map.as_str() {
+        "UniformScaleMap" => false,
+        "UniformScaleTranslateMap" | "ScaleTranslateMap" => true,
+        _ => return Ok(Transform { map, place: None }),
+    };
     let mut vec = || -> Result<[f64; 3], ScanError> {
         let v: [u8; 24] = c.array("transform")?;
         Ok(std::array::from_fn(|j| {
             f64::from_le_bytes(v[8 * j..8 * j + 8].try_into().unwrap_or_default())
         }))
     };
-    let place = match map.as_str() {
-        // Scale values, voxel size, inverse scale, inverse scale², inverse twice scale.
-        "UniformScaleMap" => {
-            vec()?;
-            let v = vec()?;
-            for _ in 0..3 {
-                vec()?;
-            }
-            Some(([0.0; 3], v))
-        }
-        // Translation, scale values, voxel size, and the same three.
-        "UniformScaleTranslateMap" | "ScaleTranslateMap" => {
-            let t = vec()?;
-            vec()?;
-            let v = vec()?;
-            for _ in 0..3 {
-                vec()?;
-            }
-            Some((t, v))
-        }
-        // Other maps have other layouts (vdb-rs would panic on them): the caller refuses them.
-        _ => None,
-    };
+    let translation = if translated { vec()? } else { [0.0; 3] };
+    vec()?; // scale values
+    let voxel_size = vec()?;
+    c.skip(3 * 24, "transform")?;
+    let place = Some((translation, voxel_size));
     Ok(Transform { map, place })
-}
-
-/// Grid `grid`'s transform.
-pub(crate) fn transform(input: Input, grid: &str) -> Result<Transform, ScanError> {
-    let (mut c, Some(d)) = locate(input, grid)? else {
-        return Err(format!("no grid named `{grid}`"));
-    };
-    read_transform(&mut c, &d)
 }
 
 /// Calls `f(first voxel, edge length in voxels, value)` for every active voxel and tile (root
 /// tiles included) of grid `grid` (full or half floats), decoding the file's bytes; every count
-/// and length is checked as [`scan`] does. The value is the float of a float grid, or component
+/// and length is checked before it is used. The value is the float of a float grid, or component
 /// `component` (0, 1, 2) of a vector grid's.
 pub(crate) fn for_each_value(
     input: Input,

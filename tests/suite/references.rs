@@ -123,6 +123,8 @@ struct PhotonCase {
     first_row: u32,
     /// Light paths per iteration (the reference's too).
     photons: u64,
+    /// The reference's iterations (tests/references/make.sh).
+    reference_iterations: u64,
     /// Overrides of the scene's `[render]` settings, the reference's too (tests/references/make.sh).
     overrides: fn(&mut RenderSettings),
     /// Whether a tile may differ by its stated kernel bias: not where reference and renders
@@ -132,9 +134,6 @@ struct PhotonCase {
 
 /// Iterations of every render of [`the_photon_scenes_match_their_committed_photon_references`].
 const ITERATIONS: u64 = 64;
-/// Iterations of the photon references (tests/references/make.sh).
-const REFERENCE_ITERATIONS: [(&str, u64); 3] =
-    [("glass-caustic", 8000), ("volumetric-caustic", 8000), ("dense-fog", 8192)];
 
 /// The scenes the path tracer cannot render against committed hybrid references of their own
 /// (tests/references/make.sh, seed 1000, at 1/16 size): eight renders of 64 iterations (seeds
@@ -171,6 +170,7 @@ fn the_photon_scenes_match_their_committed_photon_references() {
             tile: 4,
             first_row: 0,
             photons: 50_000,
+            reference_iterations: 8000,
             overrides: |_| {},
             bias_allowance: true,
         },
@@ -179,6 +179,7 @@ fn the_photon_scenes_match_their_committed_photon_references() {
             tile: 8,
             first_row: 8,
             photons: 50_000,
+            reference_iterations: 8000,
             overrides: |_| {},
             bias_allowance: true,
         },
@@ -187,6 +188,7 @@ fn the_photon_scenes_match_their_committed_photon_references() {
             tile: 8,
             first_row: 0,
             photons: 2_000,
+            reference_iterations: 8192,
             overrides: dense_fog_radii,
             bias_allowance: false,
         },
@@ -202,9 +204,7 @@ fn the_photon_scenes_match_their_committed_photon_references() {
         let (w, h) = (reference.width, reference.height);
         let mut scene = Scene::load(scene_path(&format!("{name}.toml"))).unwrap();
         scene.set_resolution([w, h]).unwrap();
-        let reference_iterations =
-            REFERENCE_ITERATIONS.iter().find(|(n, _)| *n == name).unwrap().1 as f64;
-        let factor = (1.0 + (seeds * ITERATIONS) as f64 / reference_iterations).sqrt();
+        let factor = (1.0 + (seeds * ITERATIONS) as f64 / case.reference_iterations as f64).sqrt();
         let ref_bias = tile_means(w, h, reference.bias_layer.as_deref().unwrap(), tile);
         let (mut diffs, mut biases) = (Vec::new(), Vec::new());
         for seed in 1..=seeds {

@@ -292,46 +292,43 @@ mod tests {
     #[test]
     fn photons_carry_the_emitted_power() {
         let (sigma_a, le) = (0.7f32, Rgb::new(2.0, 1.0, 0.5));
-        let homogeneous = MediumDesc::homogeneous(sigma_a, 0.3).emission(le);
-        let scale = 1.0 / (15.0 / 16.0);
-        let grid = MediumDesc::vdb(media("box.vdb"))
-            .coefficients(sigma_a, 0.3)
-            .emission(le)
-            .transform(crate::scene::Transform {
-                scale: Vec3::splat(scale),
-                translate: Vec3::splat(-0.5),
-                ..Default::default()
-            });
-        for (what, desc) in [("homogeneous", homogeneous), ("grid", grid)] {
+        for (what, desc) in emitting_cubes(sigma_a, 0.3, le) {
             let scene = cube_scene(desc);
             let emitting = EmissiveMedia::new(&scene);
             assert!(!emitting.is_empty(), "{what}");
-            let want = le * (4.0 * PI * sigma_a);
-            let n = 200_000;
-            let batches: Vec<[f64; 3]> = (0..20)
-                .map(|b| {
-                    let mut sum = [0.0f64; 3];
-                    for i in 0..n / 20 {
-                        let mut s = Sampler::new(3, Purpose::Photon, b, i);
-                        if let Some(e) = emitting.sample(&scene, &mut s) {
-                            assert_eq!(e.medium, 0);
-                            for (c, total) in sum.iter_mut().enumerate() {
-                                *total += e.beta[c] as f64;
-                            }
-                        }
-                    }
-                    sum.map(|v| v / (n / 20) as f64)
+            let want = (le * (4.0 * PI * sigma_a)).to_array().map(f64::from);
+            assert_channel_means(what, (3, Purpose::Photon, 10_000), want, |s| {
+                emitting.sample(&scene, s).map_or(Rgb::ZERO, |e| {
+                    assert_eq!(e.medium, 0);
+                    e.beta
                 })
-                .collect();
-            for c in 0..3 {
-                let means: Vec<f64> = batches.iter().map(|b| b[c]).collect();
-                crate::testing::assert_agrees(
-                    &format!("{what} channel {c}"),
-                    &means,
-                    want[c] as f64,
-                    0.0,
-                );
-            }
+            });
+        }
+    }
+
+    /// 20 batch means of `n` samples each of `sample` (sampler streams `seed`, `purpose`, batch,
+    /// index), each channel against `want` by a t-test at the suite's significance.
+    fn assert_channel_means(
+        what: &str,
+        (seed, purpose, n): (u64, Purpose, u64),
+        want: [f64; 3],
+        mut sample: impl FnMut(&mut Sampler) -> Rgb,
+    ) {
+        let means: Vec<[f64; 3]> = (0..20)
+            .map(|b| {
+                let mut sum = [0.0f64; 3];
+                for i in 0..n {
+                    let l = sample(&mut Sampler::new(seed, purpose, b, i));
+                    for (c, total) in sum.iter_mut().enumerate() {
+                        *total += l[c] as f64;
+                    }
+                }
+                sum.map(|v| v / n as f64)
+            })
+            .collect();
+        for (c, want) in want.into_iter().enumerate() {
+            let xs: Vec<f64> = means.iter().map(|m| m[c]).collect();
+            crate::testing::assert_agrees(&format!("{what}, channel {c}"), &xs, want, 0.0);
         }
     }
 
@@ -385,27 +382,11 @@ mod tests {
             let scene = cube_scene(desc);
             let m = &scene.media[0];
             let segment = EyeSegment { o, w, t_max: 1.0 };
-            let batch = 20_000;
-            let means: Vec<[f64; 3]> = (0..20)
-                .map(|b| {
-                    let mut sum = [0.0f64; 3];
-                    for i in 0..batch {
-                        let mut s = Sampler::new(5, Purpose::Other, b, i);
-                        let tr = m.segment(o, w, 1.0, &mut s);
-                        let l =
-                            media_single_scattering(&scene, &segment, (0, m), &tr, near, &mut s);
-                        for (c, total) in sum.iter_mut().enumerate() {
-                            *total += l[c] as f64;
-                        }
-                    }
-                    sum.map(|v| v / batch as f64)
-                })
-                .collect();
-            for c in 0..3 {
-                let xs: Vec<f64> = means.iter().map(|m| m[c]).collect();
-                let what = format!("{what}, channel {c}");
-                crate::testing::assert_agrees(&what, &xs, want * le[c] as f64, 0.0);
-            }
+            let want = le.to_array().map(|c| want * c as f64);
+            assert_channel_means(what, (5, Purpose::Other, 20_000), want, |s| {
+                let tr = m.segment(o, w, 1.0, s);
+                media_single_scattering(&scene, &segment, (0, m), &tr, near, s)
+            });
         }
     }
 
@@ -455,27 +436,14 @@ mod tests {
         want *= sigma_a as f64 / (n * n * n) as f64;
         for (what, desc) in emitting_cubes(sigma_a, 0.3, le) {
             let scene = cube_scene(desc);
-            let batch = 20_000;
-            let means: Vec<[f64; 3]> = (0..20)
-                .map(|b| {
-                    let mut sum = [0.0f64; 3];
-                    for i in 0..batch {
-                        let mut s = Sampler::new(4, Purpose::Other, b, i);
-                        let medium = inside.then_some(0);
-                        let l = media_next_event(&scene, x, medium, near, &mut s, |_| Rgb::ONE);
-                        for (c, total) in sum.iter_mut().enumerate() {
-                            *total += l[c] as f64;
-                        }
-                    }
-                    sum.map(|v| v / batch as f64)
-                })
-                .collect();
-            for c in 0..3 {
-                let xs: Vec<f64> = means.iter().map(|m| m[c]).collect();
-                let reference = want * le[c] as f64;
-                let what = format!("{what} at {x}, channel {c}");
-                crate::testing::assert_agrees(&what, &xs, reference, 0.0);
-            }
+            let medium = inside.then_some(0);
+            let want = le.to_array().map(|c| want * c as f64);
+            assert_channel_means(
+                &format!("{what} at {x}"),
+                (4, Purpose::Other, 20_000),
+                want,
+                |s| media_next_event(&scene, x, medium, near, s, |_| Rgb::ONE),
+            );
         }
     }
 }
