@@ -126,6 +126,23 @@ def vector():
         write(path, [g, v])
 
 
+def tinted():
+    """box.vdb's constant density beside a constant 3-vector grid `tint` = (0.4, 1, 2) over the
+    same voxels: an extinction colour that is the same everywhere, so that a grid medium coloured
+    by it equals a homogeneous medium of coloured coefficients (tinted.vdb)."""
+    g = grid(voxel=1.0 / 16.0)
+    set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
+    v = vdb.Vec3SGrid((0.0, 0.0, 0.0))
+    v.name = "tint"
+    v.transform = vdb.createLinearTransform(voxelSize=1.0 / 16.0)
+    acc = v.getAccessor()
+    for i in range(16):
+        for j in range(16):
+            for k in range(16):
+                acc.setValueOn((i, j, k), (0.4, 1.0, 2.0))
+    write("tinted.vdb", [g, v])
+
+
 def main():
     # 1. A smooth procedural cloud, 64^3 voxels over [-1, 1]^3 (voxel 1/32).
     g = grid(voxel=1.0 / 32.0, origin=(-1.0, -1.0, -1.0))
@@ -180,6 +197,8 @@ def main():
     half()
 
     vector()
+
+    tinted()
 
     # --- Files vdb-rs 0.6 would mishandle --------------------------------------------------
     # A vector grid named "density": vdb-rs would read its bytes as floats.

@@ -361,7 +361,45 @@ fn beer_lambert_cases(media_dir: &Path) -> Vec<Case> {
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
     });
+    out.push(extinction_grid_case(media_dir));
     out
+}
+
+/// Beer–Lambert with the extinction coloured by grids: media/albedo.vdb's density 1 and its three
+/// linear channels as an extinction grid times 2 (e_R = 0.1 + kx, e_G = 0.9 − ky, e_B = 0.1 +
+/// kz at voxel centres i/16, k = 0.8 · 16/15), σ_a = 1 per unit density, seen along −x through
+/// x ∈ [0.1, 0.9] by an orthographic camera covering y, z ∈ [0.15, 0.35] uniformly. Red's optical
+/// depth is linear in x; green's and blue's are constant along the ray and linear across the
+/// image, so their image means are exponentials averaged over an interval, in closed form.
+fn extinction_grid_case(media_dir: &Path) -> Case {
+    let (le, scale, a, b) = (2.0f64, 2.0f64, 0.1f64, 0.9f64);
+    let k = 0.8 * 16.0 / 15.0;
+    let (y0, y1) = (0.15f64, 0.35f64);
+    // Mean of e^{−c (u + v w)} over w ∈ [y0, y1].
+    let mean_exp = |c: f64, u: f64, v: f64| {
+        ((-c * (u + v * y0)).exp() - (-c * (u + v * y1)).exp()) / (c * v * (y1 - y0))
+    };
+    let len = b - a;
+    let tau_r = scale * (0.1 * len + k * (b * b - a * a) / 2.0);
+    let channels = [(-tau_r).exp(), mean_exp(scale * len, 0.9, -k), mean_exp(scale * len, 0.1, k)];
+    let reference = le * channels.iter().sum::<f64>() / 3.0;
+    Case {
+        name: format!("Beer–Lambert, extinction grid (τ_R {tau_r:.4})"),
+        medium: "vdb",
+        toml: format!(
+            "[camera]\ntype = \"orthographic\"\nposition = [3, 0.25, 0.25]\nlook_at = [0, 0.25, 0.25]\nheight = {}\nresolution = [6, 6]\n\n[media.grad]\ntype = \"vdb\"\nfile = \"{}\"\nsigma_a = 1\nsigma_s = 0\nextinction_grid = {{ grids = [\"albedo.r\", \"albedo.g\", \"albedo.b\"], scale = {scale} }}\n\n[materials.air]\ntype = \"interface\"\n\n[materials.black]\ntype = \"diffuse\"\nalbedo = 0\n\n[[shapes]]\ntype = \"box\"\nsize = [{len}, 0.3, 0.3]\nmaterial = \"air\"\ninterior = \"grad\"\ntransform = {{ translate = [{}, 0.25, 0.25] }}\n\n[[shapes]]\ntype = \"rectangle\"\nsize = [1, 1]\nmaterial = \"black\"\nemission = {le}\ntransform = {{ rotate = [0, 90, 0], translate = [-0.5, 0.25, 0.25] }}\n",
+            y1 - y0,
+            toml_path(&media_dir.join("albedo.vdb")),
+            (a + b) / 2.0
+        ),
+        reference,
+        // f32 rounding of the grids' values and of the tracking, as for the gradient.
+        bias: Box::new(move |_, _| reference * (scale * 2.0 * 2e-5)),
+        setup_bias: 0.0,
+        max_bounces: 10_000,
+        volume_radius: [0.02, 0.02],
+        photons_scale: 1,
+    }
 }
 
 /// The multiply scattering half-space at three views.

@@ -225,6 +225,7 @@ impl SceneBuilder {
                 temperature,
                 emission_grid,
                 albedo_grid,
+                extinction_grid,
                 layout,
                 ..
             } => {
@@ -298,11 +299,37 @@ impl SceneBuilder {
                     }
                     None => None,
                 };
+                let extinction = match extinction_grid.map(|b| *b) {
+                    Some((names, scale)) => {
+                        let field = self.colour_field(
+                            name,
+                            "extinction_grid",
+                            &file,
+                            names,
+                            scale,
+                            layout,
+                            to_scene,
+                        )?;
+                        if !(peak * field.max_value()).is_finite() {
+                            return Err(invalid(
+                                format!("media.{name}.extinction_grid.scale"),
+                                format!(
+                                    "the largest extinction, {peak} × {} (the grids' largest \
+                                     value × scale), overflows single precision; scale down",
+                                    field.max_value()
+                                ),
+                            ));
+                        }
+                        Some(field)
+                    }
+                    None => None,
+                };
                 let medium = VdbMedium::new(grid, to_scene, density_scale, sigma_a, sigma_s, phase);
                 let medium = medium
                     .with_emission(emission, temperature)
                     .with_emission_grid(colour)
-                    .with_albedo_grid(albedo);
+                    .with_albedo_grid(albedo)
+                    .with_extinction_grid(extinction);
                 Medium::Vdb(Box::new(medium))
             }
         };
@@ -311,7 +338,7 @@ impl SceneBuilder {
     }
 
     /// Three float grids of file `file` as a colour field of grid medium `name`, for its key
-    /// `what` (`emission_grid`, `albedo_grid`), checked.
+    /// `what` (`emission_grid`, `albedo_grid`, `extinction_grid`), checked.
     #[allow(clippy::too_many_arguments)]
     fn colour_field(
         &mut self,

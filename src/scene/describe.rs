@@ -175,6 +175,9 @@ pub enum MediumDesc {
         /// Single-scattering albedo from three float grids (R, G, B) of the same file, times a
         /// scale (values in [0, 1]), in place of the constant σ_s / σ_t; the extinction stays.
         albedo_grid: Option<Box<([String; 3], f32)>>,
+        /// Coloured extinction from three float grids (R, G, B) of the same file, times a scale
+        /// (values ≥ 0): σ_t, σ_a and σ_s of each channel multiplied by its value.
+        extinction_grid: Option<Box<([String; 3], f32)>>,
         /// How the grids are stored (dense or in bricks; by default chosen per grid).
         layout: GridLayout,
         /// Places the grid's world space in the scene.
@@ -238,6 +241,7 @@ impl MediumDesc {
             temperature: None,
             emission_grid: None,
             albedo_grid: None,
+            extinction_grid: None,
             layout: GridLayout::Auto,
             transform: Transform::default(),
         }
@@ -279,6 +283,18 @@ impl MediumDesc {
     pub fn albedo_grid(mut self, grids: [&str; 3], scale: f32) -> Self {
         if let MediumDesc::Vdb { albedo_grid, .. } = &mut self {
             *albedo_grid = Some(Box::new((grids.map(str::to_string), scale)));
+        }
+        self
+    }
+
+    /// Grid media: extinction coloured by `scale` × (R, G, B) read from three float grids of the
+    /// file or a vector grid's components (`NAME[0]`, `NAME[1]`, `NAME[2]`): at p, channel c's
+    /// σ_t, σ_a and σ_s are those [`Self::coefficients`] or [`Self::albedo_extinction`] set, times
+    /// the density and times the field's channel c (the albedo stays). Mitsuba's RGB σ_t
+    /// volumes are this with the density grid at 1.
+    pub fn extinction_grid(mut self, grids: [&str; 3], scale: f32) -> Self {
+        if let MediumDesc::Vdb { extinction_grid, .. } = &mut self {
+            *extinction_grid = Some(Box::new((grids.map(str::to_string), scale)));
         }
         self
     }

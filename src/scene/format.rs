@@ -163,6 +163,7 @@ pub struct VdbDef {
     pub temperature: Option<TemperatureDef>,
     pub emission_grid: Option<Box<EmissionGridDef>>,
     pub albedo_grid: Option<Box<EmissionGridDef>>,
+    pub extinction_grid: Option<Box<EmissionGridDef>>,
     pub layout: Option<LayoutDef>,
     #[serde(default)]
     pub transform: TransformDef,

@@ -259,6 +259,10 @@ fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium
             .albedo_grid
             .as_ref()
             .map(|e| Box::new((e.grids.channels(), e.scale.unwrap_or(1.0)))),
+        extinction_grid: d
+            .extinction_grid
+            .as_ref()
+            .map(|e| Box::new((e.grids.channels(), e.scale.unwrap_or(1.0)))),
         layout: match d.layout {
             None | Some(LayoutDef::Auto) => GridLayout::Auto,
             Some(LayoutDef::Dense) => GridLayout::Dense,

@@ -298,6 +298,20 @@ fn bad_grid_media_name_the_key_and_the_volume_file() {
         &vdb("albedo.vdb", &albedo("", "blue")),
         &["media.cloud.albedo_grid.grids", "no grid named `blue`", "albedo.r"],
     );
+    // Extinction grids: any non-negative scale; the largest extinction must stay finite.
+    load(&vdb("tinted.vdb", "extinction_grid = { grids = \"tint\", scale = 3 }\n")).unwrap();
+    expect_error(
+        &vdb("tinted.vdb", "extinction_grid = { grids = \"tint\", scale = -1 }\n"),
+        &["media.cloud.extinction_grid.scale", "non-negative"],
+    );
+    expect_error(
+        &vdb("tinted.vdb", "extinction_grid = { grids = \"tint\", scale = 3e38 }\n"),
+        &["media.cloud.extinction_grid.scale", "overflows"],
+    );
+    expect_error(
+        &vdb("tinted.vdb", "extinction_grid = { grids = \"colour\" }\n"),
+        &["media.cloud.extinction_grid.grids", "colour", "tint"],
+    );
 }
 
 /// No input makes the loader panic: thousands of random corruptions of the documented example

@@ -15,7 +15,12 @@ pub fn mean_and_se(xs: &[f64]) -> (f64, f64) {
 
 /// Two-sided Student-t critical value for `samples` independent samples at [`SIGNIFICANCE`].
 pub fn t_critical(samples: usize) -> f64 {
-    StudentsT::new(0.0, 1.0, (samples - 1) as f64).unwrap().inverse_cdf(1.0 - SIGNIFICANCE / 2.0)
+    t_critical_at(samples, SIGNIFICANCE)
+}
+
+/// Two-sided Student-t critical value for `samples` independent samples at significance `alpha`.
+pub fn t_critical_at(samples: usize, alpha: f64) -> f64 {
+    StudentsT::new(0.0, 1.0, (samples - 1) as f64).unwrap().inverse_cdf(1.0 - alpha / 2.0)
 }
 
 /// Asserts that the mean of independent estimates `xs` agrees with `reference` by a two-sided

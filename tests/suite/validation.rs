@@ -10,7 +10,7 @@ fn quick_validation_passes_every_case() {
     let rows =
         haze::lab::validate::run(&media, haze::lab::validate::Effort::QUICK, None, |_, _| {})
             .unwrap();
-    assert_eq!(rows.len(), 90);
+    assert_eq!(rows.len(), 95);
     let failed: Vec<String> = rows
         .iter()
         .filter(|r| !r.pass())
@@ -23,7 +23,7 @@ fn quick_validation_passes_every_case() {
         .collect();
     assert!(failed.is_empty(), "{}", failed.join("\n"));
     assert!(haze::lab::validate::markdown(&rows).contains("| pass |"));
-    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 91);
+    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 96);
 
     // The cases behind two fixed defects are there (and passed above):
     // - a grazing view of the half-space with a small beam radius from two camera distances,
