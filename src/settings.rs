@@ -496,8 +496,8 @@ render_settings! {
 
     /// Next-event estimation towards emitting media (hybrid): light from their points at least
     /// this far (scene units) from the receiving surface or medium point is sampled directly,
-    /// nearer light is left to photons. Off if absent: photons carry it all (on the bundled
-    /// fire and a thin variant it is level with photons at equal time, not ahead;
+    /// nearer light is left to photons. Off if absent: photons carry it all (it wins on lit
+    /// surfaces with few light paths per pixel, loses at the bundled fire's own settings;
     /// docs/theory.md).
     [long, value_name = "D"]
     emission_nee_distance: f64, optional = None, length;

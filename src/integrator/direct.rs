@@ -8,7 +8,7 @@
 //! [`next_event`] weighs the light sample, [`emission_weight`] an emitter the path reaches.
 
 use crate::accel::{Hit, Passage};
-use crate::math::{Rgb, offset_origin, ray_offset};
+use crate::math::{Rgb, luminance, offset_origin, ray_offset};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::light::media::EmitterPoint;
@@ -143,14 +143,23 @@ pub(crate) fn next_event(
     fv * ls.value * shadow(scene, p, ls.wi, ls.dist, medium, s) * (weight / p_light)
 }
 
+/// Candidate emitter points per next-event estimate towards emitting media, of which one gets a
+/// shadow ray ([`media_next_event`]).
+pub(crate) const MEDIA_CANDIDATES: usize = 8;
+
 /// Next-event estimate of the light that emitting media send to the receiver at `x` (in
-/// `medium`) straight from their points at least `near` away: a point p of the media drawn by
-/// emission ([`EmissiveMedia::sample_point`](crate::scene::light::media::EmissiveMedia::sample_point)),
-/// connected by a shadow ray through pass-through interfaces,
+/// `medium`) straight from their points at least `near` away,
 ///
-///   f(ω) σ_a(p) L_e(p) T(x, p) / (|p − x|² pdf(p)),  ω = (p − x)/|p − x|,
+///   ∫ f(ω) σ_a(p) L_e(p) T(x, p) / |p − x|² dp,  ω = (p − x)/|p − x|,
 ///
-/// with `f(ω)` the BSDF·cos or phase function (times σ_s) at the receiver. Points nearer than
+/// with `f(ω)` the BSDF·cos or phase function (times σ_s) at the receiver, by resampled
+/// importance sampling (Talbot et al. 2005): [`MEDIA_CANDIDATES`] points drawn by emission
+/// ([`EmissiveMedia::sample_point`](crate::scene::light::media::EmissiveMedia::sample_point)),
+/// each weighted by its unshadowed contribution p̂ = f σ_a L_e / |p − x|² (mean channel) over its
+/// density; one of them chosen by weight and connected by a shadow ray through pass-through
+/// interfaces, its contribution divided by p̂ and multiplied by the mean weight. Unbiased (p̂ is
+/// positive wherever the contribution is), and towards the receiver: the distance and the
+/// receiver's BSDF or phase function steer the choice, for one shadow ray. Points nearer than
 /// `near` count zero: their light is left to the photons (`PhotonPass::media_near`), because
 /// the 1/|p − x|² of a receiver inside or touching an emitting medium would give this estimate
 /// infinite variance (docs/theory.md, "Next-event estimation towards emitting media").
@@ -162,8 +171,27 @@ pub(crate) fn media_next_event(
     s: &mut Sampler,
     f: impl Fn(Vec3) -> Rgb,
 ) -> Rgb {
-    let Some(e) = scene.emissive_media.sample_point(scene, s) else { return Rgb::ZERO };
-    media_connection(scene, x, &e, medium, near, s, f) / e.pdf
+    let (mut chosen, mut chosen_target, mut total) = (None, 0.0f32, 0.0f32);
+    for _ in 0..MEDIA_CANDIDATES {
+        let Some(e) = scene.emissive_media.sample_point(scene, s) else { continue };
+        let to = e.p - x;
+        let dist2 = to.length_squared();
+        if !(dist2 >= near * near && dist2 > 0.0) {
+            continue;
+        }
+        let target = luminance(f(to / dist2.sqrt()) * e.f) / dist2;
+        let w = target / e.pdf;
+        if !(w > 0.0 && w.is_finite()) {
+            continue;
+        }
+        total += w;
+        if s.next_f32() * total < w {
+            (chosen, chosen_target) = (Some(e), target);
+        }
+    }
+    let Some(e) = chosen else { return Rgb::ZERO };
+    let c = media_connection(scene, x, &e, medium, near, s, f);
+    c * (total / MEDIA_CANDIDATES as f32 / chosen_target)
 }
 
 /// f(ω) σ_a(p) L_e(p) T(x, p) / |p − x|² for the emitter point `e` seen from `x` (in `medium`),

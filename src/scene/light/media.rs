@@ -510,19 +510,23 @@ mod tests {
 
     /// Next-event estimation towards an emitting cube (σ_a 0.7, σ_s 0.3: σ_t 1), f ≡ 1, from a
     /// point 0.7 outside its face with points nearer than 0.9 left out, and from a point inside
-    /// it with points nearer than 0.2 left out: its mean is the integral
-    /// ∫ σ_a L_e T(x, p) / |p − x|² over the cube beyond the cut (midpoint rule on 128³ cells, T
-    /// in closed form from the chord inside the cube), for a homogeneous cube and the constant
-    /// grid (whose shadow rays run ratio tracking); batch means by a t-test at the suite's
-    /// significance. A cut 10 % off fails it.
+    /// it with points nearer than 0.2 left out, and from the outside point with a receiver lobe
+    /// f(ω) = (ω · n)₊⁴ that sees part of the cube (so the resampling's choice matters): its mean
+    /// is the integral ∫ f σ_a L_e T(x, p) / |p − x|² over the cube beyond the cut (midpoint rule
+    /// on 128³ cells, T in closed form from the chord inside the cube), for a homogeneous cube and
+    /// the constant grid (whose shadow rays run ratio tracking); batch means by a t-test at the
+    /// suite's significance. A cut 10 % off fails it.
     #[test]
     fn next_event_estimation_towards_media_integrates_their_emission() {
         let (sigma_a, le) = (0.7f32, Rgb::new(2.0, 1.0, 0.5));
         for (x, near, inside) in
             [(Vec3::new(0.1, -0.2, 1.2), 0.9f32, false), (Vec3::new(0.1, -0.2, 0.15), 0.2, true)]
         {
-            check_media_next_event(x, near, inside, sigma_a, le);
+            check_media_next_event(x, near, inside, sigma_a, le, None);
         }
+        // A receiver whose BSDF favours part of the cube, which the resampling steers towards.
+        let lobe = Vec3::new(-0.3, 0.4, -1.0).normalize();
+        check_media_next_event(Vec3::new(0.1, -0.2, 1.2), 0.9, false, sigma_a, le, Some(lobe));
     }
 
     /// Single scattering of an emitting cube's light along an eye segment through it (σ_a 0.7,
@@ -581,8 +585,18 @@ mod tests {
         [("homogeneous", homogeneous), ("grid", grid)]
     }
 
-    fn check_media_next_event(x: Vec3, near: f32, inside: bool, sigma_a: f32, le: Rgb) {
+    /// [`next_event_estimation_towards_media_integrates_their_emission`]'s check from `x`, with
+    /// the receiver's f(ω) = 1, or (ω · n)₊⁴ for a `lobe` n.
+    fn check_media_next_event(
+        x: Vec3,
+        near: f32,
+        inside: bool,
+        sigma_a: f32,
+        le: Rgb,
+        lobe: Option<Vec3>,
+    ) {
         use crate::integrator::direct::media_next_event;
+        let f = |w: Vec3| lobe.map_or(1.0, |n| w.dot(n).max(0.0).powi(4));
         // The integral: exit of the segment p → x through the cube's faces, T = e^{−σ_t·chord}.
         let n = 128;
         let mut want = 0.0f64;
@@ -607,7 +621,7 @@ mod tests {
                 })
                 .fold(f32::INFINITY, f32::min)
                 .min(dist);
-            want += ((-exit).exp() / (dist * dist)) as f64;
+            want += (f(-d) * (-exit).exp() / (dist * dist)) as f64;
         }
         want *= sigma_a as f64 / (n * n * n) as f64;
         for (what, desc) in emitting_cubes(sigma_a, 0.3, le) {
@@ -618,7 +632,7 @@ mod tests {
                 &format!("{what} at {x}"),
                 (4, Purpose::Other, 20_000),
                 want,
-                |s| media_next_event(&scene, x, medium, near, s, |_| Rgb::ONE),
+                |s| media_next_event(&scene, x, medium, near, s, |w| Rgb::splat(f(w))),
             );
         }
     }
