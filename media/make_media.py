@@ -143,6 +143,25 @@ def tinted():
     write("tinted.vdb", [g, v])
 
 
+def hue():
+    """box.vdb's density beside a 3-vector grid `hue` that is linear in space (R rising along x,
+    G along y, B falling along z, between about 0.3 and 2) on the density's voxels and one voxel
+    beyond them on every side: an extinction colour that varies in space yet is smooth where the
+    density falls to zero, so that haze's density x colour equals the trilinear product that
+    Mitsuba 3's RGB extinction volume interpolates (docs/mitsuba; hue.vdb)."""
+    g = grid(voxel=1.0 / 16.0)
+    set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
+    v = vdb.Vec3SGrid((0.0, 0.0, 0.0))
+    v.name = "hue"
+    v.transform = vdb.createLinearTransform(voxelSize=1.0 / 16.0)
+    acc = v.getAccessor()
+    for i in range(-1, 17):
+        for j in range(-1, 17):
+            for k in range(-1, 17):
+                acc.setValueOn((i, j, k), (0.4 + 0.1 * i, 0.3 + 0.1 * j, 2.0 - 0.1 * k))
+    write("hue.vdb", [g, v])
+
+
 def main():
     # 1. A smooth procedural cloud, 64^3 voxels over [-1, 1]^3 (voxel 1/32).
     g = grid(voxel=1.0 / 32.0, origin=(-1.0, -1.0, -1.0))
@@ -199,6 +218,8 @@ def main():
     vector()
 
     tinted()
+
+    hue()
 
     # --- Files vdb-rs 0.6 would mishandle --------------------------------------------------
     # A vector grid named "density": vdb-rs would read its bytes as floats.

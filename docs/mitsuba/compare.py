@@ -82,6 +82,32 @@ np.savez({out!r}, density=a, lo=np.array(lo), origin=np.array(o), voxel=np.array
     return np.load(out)
 
 
+def export_colour(vdb, grids, lo, dims, out):
+    """An extinction grid's three channels (three float grids, or a vector grid's components
+    named NAME[k] or given as NAME) as one (x, y, z, 3) array over the density's box."""
+    names = [grids] * 3 if isinstance(grids, str) else list(grids)
+    code = f"""
+import pyopenvdb, numpy as np, re
+names, lo, dims = {names!r}, {list(map(int, lo))!r}, {list(map(int, dims))!r}
+out = np.zeros(dims + [3], dtype=np.float32)
+for c, n in enumerate(names):
+    m = re.fullmatch(r"(.*)\\[([012])\\]", n)
+    base, k = (m.group(1), int(m.group(2))) if m else (n, None)
+    g = pyopenvdb.read({vdb!r}, base)
+    if isinstance(g, pyopenvdb.Vec3SGrid):
+        a = np.zeros(dims + [3], dtype=np.float32)
+        g.copyToArray(a, ijk=lo)
+        out[..., c] = a[..., c if k is None else k]
+    else:
+        a = np.zeros(dims, dtype=np.float32)
+        g.copyToArray(a, ijk=lo)
+        out[..., c] = a
+np.save({out!r}, out)
+"""
+    subprocess.run(["/usr/bin/python3", "-c", code], check=True)
+    return np.load(out)
+
+
 def medium_dict(mi, name, m, scene_dir, tmp):
     sigma_t, albedo = coefficients(m)
     phase = {"type": "hg", "g": m.get("g", 0.0)}
@@ -93,7 +119,15 @@ def medium_dict(mi, name, m, scene_dir, tmp):
     # the centres (i + ½)/n of the unit cube.
     g = export_grid(os.path.join(scene_dir, m["file"]), m.get("grid", "density"),
                     os.path.join(tmp, f"{name}.npz"))
-    dens = np.pad(g["density"], 1)  # (x, y, z)
+    dens = g["density"]  # (x, y, z)
+    colour = None
+    if "extinction_grid" in m:
+        # σ_t,c = density · σ_t,c · scale · e_c: an RGB extinction volume.
+        e = m["extinction_grid"]
+        colour = export_colour(os.path.join(scene_dir, m["file"]), e["grids"], g["lo"],
+                               dens.shape, os.path.join(tmp, f"{name}-colour.npy"))
+        colour = np.pad(colour * float(e.get("scale", 1.0)), ((1, 1), (1, 1), (1, 1), (0, 0)))
+    dens = np.pad(dens, 1)
     n = np.array(dens.shape, dtype=float)
     T = mi.ScalarTransform4f
     corner = g["origin"] + g["voxel"] * (g["lo"] - 1.5)
@@ -102,8 +136,12 @@ def medium_dict(mi, name, m, scene_dir, tmp):
     # Mitsuba's VolumeGrid wants (z, y, x, channels). A coloured σ_t becomes an RGB grid of
     # density · σ_t (Mitsuba's heterogeneous medium takes RGB extinction volumes).
     dens = np.transpose(dens, (2, 1, 0))[..., None]
-    coloured = np.ptp(sigma_t) > 1e-6 * sigma_t.max()
-    if coloured:
+    coloured = np.ptp(sigma_t) > 1e-6 * sigma_t.max() or colour is not None
+    if colour is not None:
+        colour = np.transpose(colour, (2, 1, 0, 3))
+        data = np.ascontiguousarray(dens * sigma_t[None, None, None, :] * colour, dtype=np.float32)
+        scale = float(m.get("density_scale", 1.0))
+    elif coloured:
         data = np.ascontiguousarray(dens * sigma_t[None, None, None, :], dtype=np.float32)
         scale = float(m.get("density_scale", 1.0))
     else:
@@ -329,7 +367,8 @@ def main():
     print("|---|" + "---|" * (len(variants) + 4))
     for name in args.scenes:
         with tempfile.TemporaryDirectory() as tmp:
-            toml = os.path.join(ROOT, "scenes", f"{name}.toml")
+            toml = name if name.endswith(".toml") else os.path.join(ROOT, "scenes", f"{name}.toml")
+            name = os.path.splitext(os.path.basename(toml))[0]
             text = open(toml).read()
             # Hard-edged spots in both renderers (see light_dict).
             text = re.sub(r"falloff_start = [0-9.]+\n", "", text)
