@@ -49,6 +49,13 @@ impl Sampler {
         (self.0.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
     }
 
+    /// Uniform in [0, 1) with 53 random bits, for choices among millions of entries of a
+    /// cumulative table (24 bits would leave their chances off by whole steps).
+    #[inline]
+    pub fn next_f64(&mut self) -> f64 {
+        (self.0.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
     /// Two uniforms in [0, 1).
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {

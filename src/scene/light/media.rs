@@ -153,7 +153,7 @@ impl EmissiveMedia {
     /// Draws a photon from the emitting media (9 uniforms from `s`); `None` if the point drawn
     /// emits nothing (outside the medium, a cold voxel, or rejected).
     pub(crate) fn sample(&self, scene: &Scene, s: &mut Sampler) -> Option<MediumEmission> {
-        let u_pick = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
+        let u_pick = (s.next_f32(), s.next_f64(), s.next_f32());
         let u_pos = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
         let u_accept = s.next_f32();
         let d = sample_uniform_sphere(s.next_2d());
@@ -165,25 +165,25 @@ impl EmissiveMedia {
     /// Draws a point of the emitting media by their emission (7 uniforms from `s`), for
     /// next-event estimation: `None` if it emits nothing (or is rejected).
     pub(crate) fn sample_point(&self, scene: &Scene, s: &mut Sampler) -> Option<EmitterPoint> {
-        let u_pick = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
+        let u_pick = (s.next_f32(), s.next_f64(), s.next_f32());
         let u_pos = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
         self.point(scene, u_pick, u_pos, s.next_f32())
     }
 
-    /// The point of the media that the uniforms pick: a source by power (`u_pick.x`), a
-    /// majorant cell of it by its bounds (`.y`), an interpolation cell in that (`.z`), a uniform
-    /// point in the cell; in a grid, kept with probability (mean channel of σ_a L_e there) / (the
+    /// The point of the media that the uniforms pick: a source by power (`u_pick.0`), a
+    /// majorant cell of it by its bounds (`.1`, 53 bits: there may be millions), an interpolation
+    /// cell in that (`.2`), a uniform point in the cell; in a grid, kept with probability (mean channel of σ_a L_e there) / (the
     /// cell's bound) by `u_accept` — rejection sampling, so that the points kept are distributed
     /// as the emission's mean channel and each carries the same luminance (the grid's summed
     /// bounds times a cell's volume), and no time goes into tracing points that emit little.
     fn point(
         &self,
         scene: &Scene,
-        u_pick: Vec3,
+        u_pick: (f32, f64, f32),
         u_pos: Vec3,
         u_accept: f32,
     ) -> Option<EmitterPoint> {
-        let (u_source, u_cell, u_voxel) = (u_pick.x, u_pick.y, u_pick.z);
+        let (u_source, u_cell, u_voxel) = u_pick;
         let total = self.power();
         let k = self.cdf.partition_point(|&c| c <= u_source * total).min(self.cdf.len() - 1);
         let source = &self.sources[k];
@@ -194,7 +194,7 @@ impl EmissiveMedia {
             }
             Region::Cells { to_scene, lo, cells, ids, cdf, local, voxel_volume } => {
                 let total = *cdf.last()?;
-                let j = cdf.partition_point(|&c| c <= u_cell as f64 * total).min(cdf.len() - 1);
+                let j = cdf.partition_point(|&c| c <= u_cell * total).min(cdf.len() - 1);
                 let weight = cdf[j] - if j == 0 { 0.0 } else { cdf[j - 1] };
                 let (weight, total) = (weight as f32, total as f32);
                 let id = ids[j] as i32;
