@@ -102,45 +102,39 @@ def half():
     write("half/cube.vdb", [g])
 
 
+def box_with_vector(name, colour, lo=0, hi=16, as_half=False):
+    """box.vdb's constant density (16^3 voxels of 1/16) beside a 3-vector grid `name` holding
+    colour(i, j, k) on the voxels lo <= i, j, k < hi."""
+    g = grid(voxel=1.0 / 16.0)
+    set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
+    v = vdb.Vec3SGrid((0.0, 0.0, 0.0))
+    v.name = name
+    v.transform = vdb.createLinearTransform(voxelSize=1.0 / 16.0)
+    acc = v.getAccessor()
+    for i in range(lo, hi):
+        for j in range(lo, hi):
+            for k in range(lo, hi):
+                acc.setValueOn((i, j, k), tuple(colour(i, j, k)))
+    v.saveFloatAsHalf = as_half
+    return [g, v]
+
+
 def vector():
     """albedo.vdb's three channels as one 3-vector grid `albedo` beside its density, as Houdini
     and Blender write colour (`Cd`, `color`): vector.vdb in full floats and half/vector.vdb in
     half floats (saveFloatAsHalf: 6 bytes a value)."""
-    channels = [
-        lambda i, j, k: 0.1 + 0.8 * i / 15.0,
-        lambda i, j, k: 0.9 - 0.8 * j / 15.0,
-        lambda i, j, k: 0.1 + 0.8 * k / 15.0,
-    ]
+    def albedo(i, j, k):
+        return (0.1 + 0.8 * i / 15.0, 0.9 - 0.8 * j / 15.0, 0.1 + 0.8 * k / 15.0)
+
     for path, as_half in [("vector.vdb", False), ("half/vector.vdb", True)]:
-        g = grid(voxel=1.0 / 16.0)
-        set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
-        v = vdb.Vec3SGrid((0.0, 0.0, 0.0))
-        v.name = "albedo"
-        v.transform = vdb.createLinearTransform(voxelSize=1.0 / 16.0)
-        acc = v.getAccessor()
-        for i in range(16):
-            for j in range(16):
-                for k in range(16):
-                    acc.setValueOn((i, j, k), tuple(f(i, j, k) for f in channels))
-        v.saveFloatAsHalf = as_half
-        write(path, [g, v])
+        write(path, box_with_vector("albedo", albedo, as_half=as_half))
 
 
 def tinted():
     """box.vdb's constant density beside a constant 3-vector grid `tint` = (0.4, 1, 2) over the
     same voxels: an extinction colour that is the same everywhere, so that a grid medium coloured
     by it equals a homogeneous medium of coloured coefficients (tinted.vdb)."""
-    g = grid(voxel=1.0 / 16.0)
-    set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
-    v = vdb.Vec3SGrid((0.0, 0.0, 0.0))
-    v.name = "tint"
-    v.transform = vdb.createLinearTransform(voxelSize=1.0 / 16.0)
-    acc = v.getAccessor()
-    for i in range(16):
-        for j in range(16):
-            for k in range(16):
-                acc.setValueOn((i, j, k), (0.4, 1.0, 2.0))
-    write("tinted.vdb", [g, v])
+    write("tinted.vdb", box_with_vector("tint", lambda i, j, k: (0.4, 1.0, 2.0)))
 
 
 def hue():
@@ -149,17 +143,10 @@ def hue():
     beyond them on every side: an extinction colour that varies in space yet is smooth where the
     density falls to zero, so that haze's density x colour equals the trilinear product that
     Mitsuba 3's RGB extinction volume interpolates (docs/mitsuba; hue.vdb)."""
-    g = grid(voxel=1.0 / 16.0)
-    set_voxels(g, (16, 16, 16), lambda i, j, k: 1.0)
-    v = vdb.Vec3SGrid((0.0, 0.0, 0.0))
-    v.name = "hue"
-    v.transform = vdb.createLinearTransform(voxelSize=1.0 / 16.0)
-    acc = v.getAccessor()
-    for i in range(-1, 17):
-        for j in range(-1, 17):
-            for k in range(-1, 17):
-                acc.setValueOn((i, j, k), (0.4 + 0.1 * i, 0.3 + 0.1 * j, 2.0 - 0.1 * k))
-    write("hue.vdb", [g, v])
+    def colour(i, j, k):
+        return (0.4 + 0.1 * i, 0.3 + 0.1 * j, 2.0 - 0.1 * k)
+
+    write("hue.vdb", box_with_vector("hue", colour, lo=-1, hi=17))
 
 
 def main():

@@ -356,27 +356,26 @@ impl VdbMedium {
         self.tint.is_some() || self.extinction_grid.is_some()
     }
 
+    /// The (normalised) extinction grid's colour at `p`; 1 without one.
+    #[inline]
+    fn extinction_colour(&self, p: Vec3) -> Rgb {
+        self.extinction_grid.as_ref().map_or(Rgb::ONE, |e| e.at(p))
+    }
+
     /// σ_t per channel at `p` over the scalar σ_t · density(p): each in [0, 1].
     #[inline]
     fn tint_at(&self, p: Vec3) -> Rgb {
-        let tint = self.tint.unwrap_or(Rgb::ONE);
-        match &self.extinction_grid {
-            Some(e) => tint * e.at(p),
-            None => tint,
-        }
+        self.tint.unwrap_or(Rgb::ONE) * self.extinction_colour(p)
     }
 
-    /// σ_a / (the scalar σ_t) at `p`, per channel.
+    /// σ_a / (the scalar σ_t) at `p`, per channel, with `e` the extinction colour there.
     #[inline]
-    fn absorption_share_at(&self, p: Vec3) -> Rgb {
+    fn absorption_share_at(&self, p: Vec3, e: Rgb) -> Rgb {
         let share = match &self.albedo_grid {
             Some(a) => (Rgb::ONE - a.at(p)).max(Rgb::ZERO) * self.tint.unwrap_or(Rgb::ONE),
             None => self.absorption_share,
         };
-        match &self.extinction_grid {
-            Some(e) => share * e.at(p),
-            None => share,
-        }
+        share * e
     }
 
     /// The colour grids' emission, if any.
@@ -409,7 +408,7 @@ impl VdbMedium {
     /// σ_a at `p`.
     #[inline]
     pub fn sigma_a(&self, p: Vec3) -> Rgb {
-        self.absorption_share_at(p) * (self.sigma_t * self.density(p))
+        self.absorption_share_at(p, self.extinction_colour(p)) * (self.sigma_t * self.density(p))
     }
 
     /// The grid's density (scaled), its map from scene to index space, and the majorant cells
@@ -448,8 +447,9 @@ impl VdbMedium {
         self.tentative(o, d, t_max, EMISSION_RATE, s, |t, sigma_t, mu, s| {
             if sigma_t > 0.0 {
                 let p = o + d * t;
-                let tint = self.tint_at(p);
-                sum += self.absorption_share_at(p) * (tr * (sigma_t / mu)) * self.le(p);
+                let e = self.extinction_colour(p);
+                let tint = self.tint.unwrap_or(Rgb::ONE) * e;
+                sum += self.absorption_share_at(p, e) * (tr * (sigma_t / mu)) * self.le(p);
                 tr = (tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO);
                 // Russian roulette once the transmittance is small (unbiased: survivors are
                 // divided by their chance), so that a walk through thick emitting smoke ends

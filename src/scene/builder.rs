@@ -260,70 +260,31 @@ impl SceneBuilder {
                 if let Some(t) = &temperature {
                     self.grids.push(GridInfo::of(name, &t.name, &t.grid));
                 }
-                let colour = match emission_grid.map(|b| *b) {
-                    Some((names, scale)) => Some(self.colour_field(
-                        name,
-                        "emission_grid",
-                        &file,
-                        names,
-                        scale,
-                        layout,
-                        to_scene,
-                    )?),
-                    None => None,
-                };
-                let albedo = match albedo_grid.map(|b| *b) {
-                    Some((names, scale)) => {
-                        let field = self.colour_field(
-                            name,
-                            "albedo_grid",
-                            &file,
-                            names,
-                            scale,
-                            layout,
-                            to_scene,
-                        )?;
+                let fields = (file.as_path(), layout, to_scene);
+                let colour =
+                    self.colour_field(name, "emission_grid", emission_grid, fields, |_| None)?;
+                let albedo =
+                    self.colour_field(name, "albedo_grid", albedo_grid, fields, |field| {
                         // In 1 + 1e-6: grids written as 1.0 through a scale of exactly 1 pass.
                         let max = field.max_value();
-                        if max > 1.0 + 1e-6 {
-                            return Err(invalid(
-                                format!("media.{name}.albedo_grid.scale"),
-                                format!(
-                                    "albedo must lie in [0, 1], but the grids reach {max:.3} (their \
-                                     largest value × scale {})",
-                                    field.scale
-                                ),
-                            ));
-                        }
-                        Some(field)
-                    }
-                    None => None,
-                };
-                let extinction = match extinction_grid.map(|b| *b) {
-                    Some((names, scale)) => {
-                        let field = self.colour_field(
-                            name,
-                            "extinction_grid",
-                            &file,
-                            names,
-                            scale,
-                            layout,
-                            to_scene,
-                        )?;
-                        if !(peak * field.max_value()).is_finite() {
-                            return Err(invalid(
-                                format!("media.{name}.extinction_grid.scale"),
-                                format!(
-                                    "the largest extinction, {peak} × {} (the grids' largest \
-                                     value × scale), overflows single precision; scale down",
-                                    field.max_value()
-                                ),
-                            ));
-                        }
-                        Some(field)
-                    }
-                    None => None,
-                };
+                        (max > 1.0 + 1e-6).then(|| {
+                            format!(
+                                "albedo must lie in [0, 1], but the grids reach {max:.3} (their \
+                             largest value × scale {})",
+                                field.scale
+                            )
+                        })
+                    })?;
+                let extinction =
+                    self.colour_field(name, "extinction_grid", extinction_grid, fields, |field| {
+                        let max = field.max_value();
+                        (!(peak * max).is_finite()).then(|| {
+                            format!(
+                                "the largest extinction, {peak} × {max} (the grids' largest value \
+                                 × scale), overflows single precision; scale down"
+                            )
+                        })
+                    })?;
                 let medium = VdbMedium::new(grid, to_scene, density_scale, sigma_a, sigma_s, phase);
                 let medium = medium
                     .with_emission(emission, temperature)
@@ -337,19 +298,19 @@ impl SceneBuilder {
         Ok(MediumId(self.media.len() as u32 - 1))
     }
 
-    /// Three float grids of file `file` as a colour field of grid medium `name`, for its key
-    /// `what` (`emission_grid`, `albedo_grid`, `extinction_grid`), checked.
-    #[allow(clippy::too_many_arguments)]
+    /// The colour field `given` (three grid names and a scale) of grid medium `name`, for its key
+    /// `what` (`emission_grid`, `albedo_grid`, `extinction_grid`), read from `file` in `layout`
+    /// and placed by `to_scene`; `check` returns a message against `what.scale` for a field the
+    /// key does not allow.
     fn colour_field(
         &mut self,
         name: &str,
         what: &str,
-        file: &Path,
-        names: [String; 3],
-        scale: f32,
-        layout: GridLayout,
-        to_scene: glam::Affine3A,
-    ) -> Result<ColourField> {
+        given: Option<Box<([String; 3], f32)>>,
+        (file, layout, to_scene): (&Path, GridLayout, glam::Affine3A),
+        check: impl Fn(&ColourField) -> Option<String>,
+    ) -> Result<Option<ColourField>> {
+        let Some((names, scale)) = given.map(|b| *b) else { return Ok(None) };
         let ekey = |k: &str| format!("media.{name}.{what}.{k}");
         if !(scale.is_finite() && scale >= 0.0) {
             let message = format!("must be finite and non-negative, got {scale}");
@@ -363,7 +324,11 @@ impl SceneBuilder {
             grids.push(g);
         }
         let grids: [DensityGrid; 3] = grids.try_into().expect("three grids");
-        Ok(ColourField::new(grids, names, to_scene, scale))
+        let field = ColourField::new(grids, names, to_scene, scale);
+        match check(&field) {
+            Some(message) => Err(invalid(ekey("scale"), message)),
+            None => Ok(Some(field)),
+        }
     }
 
     /// The temperature field of grid medium `name` (file `file`), checked.

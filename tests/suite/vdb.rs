@@ -48,6 +48,27 @@ fn twin_scenes(
     (build(a), build(b))
 }
 
+/// A render of a [`twins`] scene: `iterations` of 20,000 light paths at radii 0.05, seed `seed`.
+fn twin_render(
+    scene: &haze::Scene,
+    estimate: haze::settings::VolumeEstimate,
+    iterations: u64,
+    seed: u64,
+) -> haze::output::Image {
+    let s = haze::settings::RenderSettings {
+        iterations: Some(iterations),
+        photons: 20_000,
+        radius: Some(0.05),
+        volume_radius: Some(0.05),
+        volume_estimate: estimate,
+        max_bounces: 32,
+        seed,
+        ..haze::settings::RenderSettings::default()
+    };
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    haze::render(scene, &s, &mut haze::progress::Silent, &stop).unwrap()
+}
+
 /// A constant-density grid renders like the equivalent homogeneous medium: box.vdb holds density
 /// 1 on [0, 15/16]³ (voxel centres), and the medium sits in a pass-through box inside that
 /// region, so both scenes have exactly the same coefficients everywhere. The photon-mapping bias
@@ -56,30 +77,14 @@ fn twin_scenes(
 #[test]
 fn constant_density_grid_renders_like_the_homogeneous_medium() {
     use haze::glam::Vec3;
-    use haze::progress::Silent;
-    use haze::settings::{RenderSettings, VolumeEstimate};
-    use std::sync::atomic::AtomicBool;
+    use haze::settings::VolumeEstimate;
 
     // Optically thin (τ ≈ 0.75 across the box), so the image depends strongly on the density.
     let (sigma_a, sigma_s) = (Vec3::splat(0.4), Vec3::splat(0.6));
     let (homogeneous, grid) = twins(sigma_a, sigma_s);
     for estimate in [VolumeEstimate::Beam, VolumeEstimate::Point] {
         let means = |scene: &haze::Scene| -> Vec<f64> {
-            (0..8)
-                .map(|seed| {
-                    let s = RenderSettings {
-                        iterations: Some(3),
-                        photons: 20_000,
-                        radius: Some(0.05),
-                        volume_radius: Some(0.05),
-                        volume_estimate: estimate,
-                        max_bounces: 32,
-                        seed,
-                        ..RenderSettings::default()
-                    };
-                    haze::render(scene, &s, &mut Silent, &AtomicBool::new(false)).unwrap().mean()
-                })
-                .collect()
+            (0..8).map(|seed| twin_render(scene, estimate, 3, seed).mean()).collect()
         };
         let (h, g) = (means(&homogeneous), means(&grid));
         let ((mh, sh), (mg, sg)) = (mean_and_se(&h), mean_and_se(&g));
@@ -101,10 +106,8 @@ fn constant_density_grid_renders_like_the_homogeneous_medium() {
 #[test]
 fn a_constant_extinction_colour_grid_renders_like_the_coloured_homogeneous_medium() {
     use haze::glam::Vec3;
-    use haze::progress::Silent;
     use haze::scene::MediumDesc;
-    use haze::settings::{RenderSettings, VolumeEstimate};
-    use std::sync::atomic::AtomicBool;
+    use haze::settings::VolumeEstimate;
     let tint = Vec3::new(0.4, 1.0, 2.0);
     let (sigma_a, sigma_s) = (Vec3::splat(0.25), Vec3::splat(0.35));
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("media/tinted.vdb");
@@ -119,18 +122,7 @@ fn a_constant_extinction_colour_grid_renders_like_the_coloured_homogeneous_mediu
         let means = |scene: &haze::Scene| -> Vec<[f64; 3]> {
             (0..24)
                 .map(|seed| {
-                    let s = RenderSettings {
-                        iterations: Some(4),
-                        photons: 20_000,
-                        radius: Some(0.05),
-                        volume_radius: Some(0.05),
-                        volume_estimate: estimate,
-                        max_bounces: 32,
-                        seed,
-                        ..RenderSettings::default()
-                    };
-                    let image =
-                        haze::render(scene, &s, &mut Silent, &AtomicBool::new(false)).unwrap();
+                    let image = twin_render(scene, estimate, 4, seed);
                     let n = image.pixels.len() as f64;
                     [0, 1, 2].map(|c| image.pixels.iter().map(|p| p[c] as f64).sum::<f64>() / n)
                 })
