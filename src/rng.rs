@@ -21,6 +21,9 @@ pub enum Purpose {
     Thinning = 4,
     /// The ray sets of `haze bench rays`.
     Benchmark = 5,
+    /// The pool of emitter points an iteration's next-event estimates towards emitting media
+    /// choose their candidates from.
+    EmitterPool = 6,
 }
 
 /// A portable seeded generator (xoshiro256++), with the float helpers the renderer needs.

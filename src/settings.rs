@@ -34,7 +34,7 @@
 //! integrator = "hybrid"     # "hybrid" (light sampling + photons), "photons" or "path"
 //! progression = "probabilistic"  # or "original": Hachisuka 2008 per-pixel statistics (surfaces only)
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
-//! emission_nee_distance = 2  # emitting media's light from ≥ this far by next-event estimation (hybrid; off if absent)
+//! emission_nee_distance = 2  # emitting media's light on surfaces from ≥ this far by next-event estimation (hybrid; off if absent)
 //! photon_guiding = "visibility"  # emit photons towards what the camera sees, or "off"
 //! ```
 
@@ -495,10 +495,10 @@ render_settings! {
     beam_cell_budget: u32, optional = None, at_least_one;
 
     /// Next-event estimation towards emitting media (hybrid): light from their points at least
-    /// this far (scene units) from the receiving surface or medium point is sampled directly,
-    /// nearer light is left to photons. Off if absent: photons carry it all (it wins on lit
-    /// surfaces with few light paths per pixel, loses at the bundled fire's own settings;
-    /// docs/theory.md).
+    /// this far (scene units) from a lit diffuse surface is sampled directly, nearer light (and
+    /// in media all of it) is left to photons. Off if absent: photons carry it all (it wins on
+    /// wide surfaces lit by a compact fire, scenes/campfire.toml; on the bundled room fire it
+    /// wins on the walls and loses near the fire; docs/theory.md).
     [long, value_name = "D"]
     emission_nee_distance: f64, optional = None, length;
 }

@@ -8,7 +8,7 @@
 //! collision the path goes on with the free-flight weight).
 
 use super::direct::surface_direct;
-use super::single::{media_single_scattering, single_scattering};
+use super::single::single_scattering;
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::Estimate;
@@ -22,6 +22,7 @@ use crate::photon::marks::GatherMarks;
 use crate::photon::{BounceRange, Photon, VolumePhoton};
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
+use crate::scene::light::media::EmitterPool;
 use crate::scene::material::Material;
 use crate::settings::VolumeEstimate;
 use glam::Vec3;
@@ -39,6 +40,9 @@ pub(crate) struct Maps<'a> {
     pub lights: &'a LightSampler,
     /// Where to record the photons the pass gathers (the guiding pilot, `haze bench`).
     pub marks: Option<&'a GatherMarks>,
+    /// The iteration's candidate points of emitting media, for next-event estimation towards
+    /// them (the hybrid with `media_near` finite; else empty).
+    pub emitters: &'a EmitterPool,
 }
 
 /// Settings of one camera pass.
@@ -63,8 +67,8 @@ pub(crate) struct CameraPass {
     pub hybrid: bool,
     /// Next-event estimates per eye vertex (hybrid), averaged.
     pub direct_samples: u32,
-    /// The hybrid's next-event estimation of emitting media covers their points at least this
-    /// far from the receiver (infinite: none; `PhotonPass::media_near`).
+    /// The hybrid's next-event estimation of emitting media at diffuse surfaces covers their
+    /// points at least this far from the receiver (infinite: none; `PhotonPass::media_near`).
     pub media_near: f32,
 }
 
@@ -152,8 +156,8 @@ impl<F> PhotonEye<'_, F> {
     /// gathered there (one more event) after the path's specular bounces, keeps the whole path
     /// within the bounce limit. The hybrid leaves light straight from the lights (k = 0) to
     /// next-event estimation: its photon pass stores no such photon (`PhotonPass::skip_direct`),
-    /// nor a medium's photon whose first event lies at least `media_near` from where it was
-    /// emitted, so every stored photon is gathered.
+    /// nor a medium's photon whose first event is on a surface at least `media_near` from where
+    /// it was emitted, so every stored photon is gathered.
     fn bounces(&self, path: &EyePath) -> BounceRange {
         let room = path.max_bounces.saturating_sub(1 + path.depth);
         BounceRange { min: 0, max: room.min(u16::MAX as u32) as u16 }
@@ -175,14 +179,9 @@ impl<F> PhotonEye<'_, F> {
         let segment = EyeSegment { o: path.o, w: path.d, t_max };
         let scene = path.scene;
         let n = self.pass.direct_samples;
-        let near = self.pass.media_near;
         let sum = (0..n).fold(Rgb::ZERO, |l, _| {
             let s = &mut path.s;
-            let mut c = single_scattering(scene, self.maps.lights, &segment, (id, m), tr, s);
-            if near.is_finite() {
-                c += media_single_scattering(scene, &segment, (id, m), tr, near, s);
-            }
-            l + c
+            l + single_scattering(scene, self.maps.lights, &segment, (id, m), tr, s)
         });
         sum / n as f32
     }
@@ -241,8 +240,10 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
             let scene = path.scene;
             let (lights, medium) = (self.maps.lights, path.medium);
             let near = self.pass.media_near;
+            let media = near.is_finite().then_some((near, self.maps.emitters));
             let s = &mut path.s;
-            path.l += path.beta * surface_direct(scene, lights, hit, wo, material, medium, near, s);
+            path.l +=
+                path.beta * surface_direct(scene, lights, hit, wo, material, medium, media, s);
         }
         let bounces = self.bounces(path);
         let e = (self.at_diffuse)(hit.p, n, material.diffuse_f(), path.beta, bounces);

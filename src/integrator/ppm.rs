@@ -17,6 +17,7 @@ use crate::photon::{Photon, VolumePhoton};
 use crate::progress::StepTimes;
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
+use crate::scene::light::media::EmitterPool;
 use crate::settings::{Integrator, PhotonGuiding, Progression, RenderSettings, VolumeEstimate};
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
@@ -58,6 +59,8 @@ pub(crate) struct PhotonMapper {
     surface_map: PhotonGrid<Photon>,
     volume_points: PhotonGrid<VolumePhoton>,
     volume_beams: BeamMap,
+    /// The iteration's candidate points for next-event estimation towards emitting media.
+    emitters: EmitterPool,
 }
 
 impl PhotonMapper {
@@ -100,6 +103,7 @@ impl PhotonMapper {
             surface_map: PhotonGrid::default(),
             volume_points: PhotonGrid::default(),
             volume_beams: BeamMap::new(),
+            emitters: EmitterPool::default(),
         }
     }
 
@@ -163,9 +167,13 @@ impl PhotonMapper {
         Some(times)
     }
 
-    /// Step 1, the photon pass of iteration `i`. Returns `false` if `stop` was raised before it
-    /// finished (the photons are then incomplete).
+    /// Step 1, the photon pass of iteration `i`, with the iteration's pool of emitter points
+    /// if the hybrid estimates emitting media's light by next-event estimation. Returns `false`
+    /// if `stop` was raised before it finished (the photons are then incomplete).
     pub(crate) fn trace(&mut self, scene: &Scene, i: u64, stop: &AtomicBool) -> bool {
+        if self.media_near.is_finite() {
+            self.emitters = EmitterPool::new(scene, self.seed, i);
+        }
         let pass = self.photon_pass(i, self.paths, false);
         trace_photons(scene, &self.lights, self.guide.as_ref(), &pass, stop, &mut self.photons)
     }
@@ -338,6 +346,7 @@ impl PhotonMapper {
             volume_beams: &self.volume_beams,
             lights: &self.lights,
             marks: None,
+            emitters: &self.emitters,
         }
     }
 

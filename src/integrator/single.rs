@@ -27,7 +27,7 @@
 //! interfaces, with exact transmittance in homogeneous media and ratio tracking in grids
 //! (docs/theory.md, "Single scattering along a segment").
 
-use super::direct::{emitted, media_connection, power_heuristic, shadow};
+use super::direct::{emitted, power_heuristic, shadow};
 use crate::estimate::volume::EyeSegment;
 use crate::math::Rgb;
 use crate::medium::{Medium, SegmentTransmittance, TransmittanceDistance};
@@ -158,42 +158,6 @@ pub(crate) fn single_scattering(
         }
     }
     sum
-}
-
-/// The single-scattered light of emitting media along `segment` in medium `id` (`medium`), from
-/// their points at least `near` from the scattering point (nearer light is the photons'; see
-/// [`media_next_event`](super::direct::media_next_event)): a point p of the media drawn by
-/// emission, a distance on the segment by equiangular sampling towards it, and a shadow ray —
-///
-///   T(0, t) σ_s(x_t) f_p σ_a(p) L_e(p) T(x_t, p) / (|p − x_t|² pdf(p) pdf(t)),
-///
-/// to be multiplied by the eye path's throughput. Equiangular sampling follows the 1/|p − x_t|²
-/// of the connection, so segments passing near the emitting medium are not missed.
-pub(crate) fn media_single_scattering(
-    scene: &Scene,
-    segment: &EyeSegment,
-    (id, medium): (u32, &Medium),
-    tr: &SegmentTransmittance,
-    near: f32,
-    s: &mut Sampler,
-) -> Rgb {
-    let EyeSegment { o, w: d, t_max } = *segment;
-    let Some((t0, t1)) = medium.scattering_extent(o, d, t_max) else { return Rgb::ZERO };
-    let Some(e) = scene.emissive_media.sample_point(scene, s) else { return Rgb::ZERO };
-    let u = s.next_f32();
-    let Some(towards) = Equiangular::new(o, d, e.p, t0, t1) else { return Rgb::ZERO };
-    let (t, pdf_t) = towards.sample(u);
-    if !(pdf_t > 0.0 && t.is_finite()) {
-        return Rgb::ZERO;
-    }
-    let x = o + d * t;
-    let sigma_s = medium.sigma_s(x);
-    if sigma_s.max_element() <= 0.0 {
-        return Rgb::ZERO;
-    }
-    let phase = medium.phase();
-    let c = media_connection(scene, x, &e, Some(id), near, s, |wi| Rgb::splat(phase.eval(d, wi)));
-    tr.at(t) * sigma_s * c / (e.pdf * pdf_t)
 }
 
 /// The light chosen at a point: its index, its selection probability there, and its sampled

@@ -37,8 +37,9 @@ pub struct PhotonPass {
     /// Store no photon at a light path's first event (light straight from the light), which the
     /// hybrid integrator estimates by next-event estimation instead …
     pub skip_direct: bool,
-    /// … and for light paths from emitting media, none at a first event at least this far from
-    /// the point of emission (infinite: all are stored), which next-event estimation covers.
+    /// … and for light paths from emitting media, none at a first event on a surface at least
+    /// this far from the point of emission (infinite: all are stored), which next-event
+    /// estimation covers (in media photons carry it all).
     pub media_near: f32,
     /// Record each path's light and guided uniforms, and each photon's path (the guiding pilot).
     pub record: bool,
@@ -96,11 +97,12 @@ const ALWAYS_STORED: f32 = 32.0;
 /// for the ~1000 events of an albedo-0.999 random walk, at most ~280 under the largest bounce
 /// limit. Memory per iteration stays within light paths × a small constant, and paths of up to
 /// 32 events — nearly every path outside dense, high-albedo media — keep every photon.
-fn stored(path: &mut LightPath, pass: &PhotonPass, x: Vec3) -> Option<f32> {
+/// `surface`: the event is at a surface (else a medium collision).
+fn stored(path: &mut LightPath, pass: &PhotonPass, x: Vec3, surface: bool) -> Option<f32> {
     if pass.skip_direct && path.bounces == 0 {
         match path.emitted_at {
             None => return None,
-            Some(o) if (x - o).length_squared() >= pass.media_near * pass.media_near => {
+            Some(o) if surface && (x - o).length_squared() >= pass.media_near * pass.media_near => {
                 return None;
             }
             Some(_) => {}
@@ -130,8 +132,8 @@ struct LightPath {
     bounces: u32,
     crossings: u32,
     /// Where a medium emitted it (`None` for a light's): in the hybrid its first event stores a
-    /// photon if it lies nearer than `PhotonPass::media_near`, the light next-event estimation
-    /// leaves to photons.
+    /// photon if it is a medium collision or lies nearer than `PhotonPass::media_near`, the light
+    /// next-event estimation leaves to photons.
     emitted_at: Option<Vec3>,
 }
 
@@ -267,7 +269,7 @@ fn collide(
     // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s. Where
     // σ_s = 0 the photon could only ever be weighted by zero: skip it.
     if sigma_s.max_element() > 0.0 {
-        if let Some(scale) = stored(path, pass, p) {
+        if let Some(scale) = stored(path, pass, p, false) {
             let bounces = path.bounces as u16;
             let beta = path.beta * scale;
             out.volume.push(VolumePhoton { p, d, beta, medium: id as u16, bounces });
@@ -317,7 +319,7 @@ fn at_surface(
     if material.is_diffuse() {
         // Power convention (see `Photon`): store the path throughput as it arrives.
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-        if let Some(scale) = stored(path, pass, hit.p) {
+        if let Some(scale) = stored(path, pass, hit.p, true) {
             let (beta, bounces) = (path.beta * scale, path.bounces as u16);
             out.surface.push(Photon { p: hit.p, n, beta, bounces });
             if pass.record {

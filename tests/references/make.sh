@@ -15,7 +15,7 @@ size() {
     sed -n 's/^resolution *= *\[ *\([0-9]*\) *, *\([0-9]*\) *\].*/\1 \2/p' "scenes/$1.toml" | head -1 |
         awk '{w = int($1 / 16 + 0.5); h = int($2 / 16 + 0.5); if (w < 8) w = 8; if (h < 8) h = 8; print w "x" h}'
 }
-for s in coloured-smoke cornell-box cornell-cloud-homogeneous cornell-cloud cornell-fog cumulus \
+for s in campfire coloured-smoke cornell-box cornell-cloud-homogeneous cornell-cloud cornell-fog cumulus \
     fire fog-backward fog-forward spotlight-fog thin-fog vdb-cloud vdb-edges; do
     "$HAZE" render "scenes/$s.toml" --integrator path -n 8192 --seed 1000 \
         --resolution "$(size "$s")" -q -o "tests/references/$s.exr"

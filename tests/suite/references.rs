@@ -25,7 +25,8 @@ use haze::settings::{Integrator, RenderSettings};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-const PATH_TRACED: [&str; 13] = [
+const PATH_TRACED: [&str; 14] = [
+    "campfire",
     "coloured-smoke",
     "cornell-box",
     "cornell-cloud-homogeneous",

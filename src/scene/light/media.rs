@@ -19,11 +19,14 @@
 //! cell with any emission: memory like a brick's), picked by their sums, then within.
 //! Emission of a homogeneous medium outside the scene's bounds is not sampled: an emitting
 //! homogeneous medium must be enclosed by the scene's geometry.
+//!
+//! Next-event estimation towards emitting media draws the same points without the rejection,
+//! in advance: an [`EmitterPool`] per iteration, from which the estimates pick their candidates.
 
 use crate::math::{Rgb, luminance, sample_uniform_sphere};
 use crate::medium::grid::MAJORANT_CELL;
 use crate::medium::{Medium, blackbody};
-use crate::rng::Sampler;
+use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
 use glam::{Affine3A, IVec3, Vec3};
 use rayon::prelude::*;
@@ -157,31 +160,39 @@ impl EmissiveMedia {
         let u_pos = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
         let u_accept = s.next_f32();
         let d = sample_uniform_sphere(s.next_2d());
-        let e = self.point(scene, u_pick, u_pos, u_accept)?;
+        let e = self.point(scene, u_pick, u_pos, Some(u_accept))?;
+        if !e.inside(scene) {
+            return None;
+        }
         let beta = e.f * (4.0 * PI / e.pdf);
         Some(MediumEmission { p: e.p, d, medium: e.medium, beta })
     }
 
-    /// Draws a point of the emitting media by their emission (7 uniforms from `s`), for
-    /// next-event estimation: `None` if it emits nothing (or is rejected).
-    pub(crate) fn sample_point(&self, scene: &Scene, s: &mut Sampler) -> Option<EmitterPoint> {
+    /// Draws a candidate point of the emitting media for next-event estimation (6 uniforms from
+    /// `s`): as a photon's point, but never rejected — its density is that of the bounds, and
+    /// the resampling weight (target over density) takes the place of the rejection test, so
+    /// that no draw is wasted. `None` if it emits nothing there. Whether a grid's point lies in
+    /// its medium, as the scene's interfaces say, is left to [`EmitterPoint::inside`]: a ray
+    /// query, which resampling needs for the chosen point only.
+    pub(crate) fn sample_candidate(&self, scene: &Scene, s: &mut Sampler) -> Option<EmitterPoint> {
         let u_pick = (s.next_f32(), s.next_f64(), s.next_f32());
         let u_pos = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
-        self.point(scene, u_pick, u_pos, s.next_f32())
+        self.point(scene, u_pick, u_pos, None)
     }
 
     /// The point of the media that the uniforms pick: a source by power (`u_pick.0`), a
     /// majorant cell of it by its bounds (`.1`, 53 bits: there may be millions), an interpolation
-    /// cell in that (`.2`), a uniform point in the cell; in a grid, kept with probability (mean channel of σ_a L_e there) / (the
-    /// cell's bound) by `u_accept` — rejection sampling, so that the points kept are distributed
-    /// as the emission's mean channel and each carries the same luminance (the grid's summed
-    /// bounds times a cell's volume), and no time goes into tracing points that emit little.
+    /// cell in that (`.2`), a uniform point in the cell; in a grid, given `u_accept`, kept with
+    /// probability (mean channel of σ_a L_e there) / (the cell's bound) — rejection sampling, so
+    /// that the points kept are distributed as the emission's mean channel and each carries the
+    /// same luminance (the grid's summed bounds times a cell's volume), and no time goes into
+    /// tracing points that emit little.
     fn point(
         &self,
         scene: &Scene,
         u_pick: (f32, f64, f32),
         u_pos: Vec3,
-        u_accept: f32,
+        u_accept: Option<f32>,
     ) -> Option<EmitterPoint> {
         let (u_source, u_cell, u_voxel) = u_pick;
         let total = self.power();
@@ -212,7 +223,14 @@ impl EmissiveMedia {
                 (to_scene.transform_point3(q), pdf, Some(bound))
             }
         };
-        if !(pdf_v > 0.0 && pdf_v.is_finite()) || scene.medium_at(p) != Some(source.medium) {
+        if !(pdf_v > 0.0 && pdf_v.is_finite()) {
+            return None;
+        }
+        // A homogeneous medium's box is mostly outside it: a point there is dropped here. A
+        // grid's cells lie in its medium as a rule, and most drawn points are rejected below:
+        // the ray query waits until a point is kept (or chosen, `EmitterPoint::inside`).
+        let known_inside = cap.is_none();
+        if known_inside && scene.medium_at(p) != Some(source.medium) {
             return None;
         }
         let m = &scene.media[source.medium as usize];
@@ -220,11 +238,75 @@ impl EmissiveMedia {
         if f.max_element() <= 0.0 {
             return None;
         }
-        let keep = cap.map_or(1.0, |b| (luminance(f) / b).min(1.0));
-        if u_accept >= keep {
-            return None;
+        let keep = match (cap, u_accept) {
+            (Some(b), Some(u)) => {
+                let keep = (luminance(f) / b).min(1.0);
+                if u >= keep {
+                    return None;
+                }
+                keep
+            }
+            _ => 1.0,
+        };
+        Some(EmitterPoint {
+            p,
+            medium: source.medium,
+            f,
+            pdf: pdf_v * keep * p_source,
+            known_inside,
+        })
+    }
+}
+
+/// Points of an emitting medium per pool: candidates of the next-event estimates of one
+/// iteration are picked from these (see [`EmitterPool`]).
+pub(crate) const POOL_POINTS: usize = 1 << 14;
+
+/// One iteration's pool of candidate emitter points ([`EmissiveMedia::sample_candidate`],
+/// drawn in advance), shared by every next-event estimate towards emitting media of the
+/// iteration (`media_next_event`): picking a uniform entry costs a load, where drawing
+/// afresh costs two table searches, a density lookup and the emission. Each pick is
+/// distributed as a fresh draw, so estimates that are linear in their candidates (resampling's
+/// mean weight times the chosen one's contribution over its weight) stay unbiased; what
+/// the sharing adds is correlation between the pixels of one iteration, which the average
+/// over iterations, each with its own pool, removes ("light tiles" of Wyman and Panteleev 2021
+/// are the same idea for many lights). An entry that drew nothing (a cold or empty point)
+/// stays a candidate that weighs nothing, as it would be drawn.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct EmitterPool {
+    points: Vec<Option<EmitterPoint>>,
+}
+
+impl EmitterPool {
+    /// The pool of iteration `iteration` under `seed`: entry k from its own stream, so the pool
+    /// is the same whatever the threads (empty if no medium emits).
+    pub(crate) fn new(scene: &Scene, seed: u64, iteration: u64) -> Self {
+        if scene.emissive_media.is_empty() {
+            return Self::default();
         }
-        Some(EmitterPoint { p, medium: source.medium, f, pdf: pdf_v * keep * p_source })
+        let points = (0..POOL_POINTS as u64)
+            .into_par_iter()
+            .map(|k| {
+                let mut s = Sampler::new(seed, Purpose::EmitterPool, iteration, k);
+                scene.emissive_media.sample_candidate(scene, &mut s)
+            })
+            .collect();
+        Self { points }
+    }
+
+    /// A pool of `n` points drawn from `s` (for tests that redraw it per estimate).
+    #[cfg(test)]
+    pub(crate) fn drawn(scene: &Scene, n: usize, s: &mut Sampler) -> Self {
+        Self { points: (0..n).map(|_| scene.emissive_media.sample_candidate(scene, s)).collect() }
+    }
+
+    /// A uniformly chosen entry (one uniform from `s`); `None` if it drew nothing or the pool
+    /// is empty.
+    #[inline]
+    pub(crate) fn pick(&self, s: &mut Sampler) -> Option<&EmitterPoint> {
+        let n = self.points.len();
+        let k = ((s.next_f32() * n as f32) as usize).min(n.checked_sub(1)?);
+        self.points[k].as_ref()
     }
 }
 
@@ -238,6 +320,16 @@ pub(crate) struct EmitterPoint {
     pub f: Rgb,
     /// The density of the point per unit volume (the medium's choice included).
     pub pdf: f32,
+    /// True if the point is known to lie in its medium (else [`Self::inside`] asks the scene).
+    known_inside: bool,
+}
+
+impl EmitterPoint {
+    /// True if the point lies in its medium as the scene's interfaces say (a ray query): a point
+    /// outside emits nothing there.
+    pub(crate) fn inside(&self, scene: &Scene) -> bool {
+        self.known_inside || scene.medium_at(self.p) == Some(self.medium)
+    }
 }
 
 /// The interpolation cells of a grid medium with their bounds (module docs), and the medium's
@@ -529,47 +621,6 @@ mod tests {
         check_media_next_event(Vec3::new(0.1, -0.2, 1.2), 0.9, false, sigma_a, le, Some(lobe));
     }
 
-    /// Single scattering of an emitting cube's light along an eye segment through it (σ_a 0.7,
-    /// σ_s 0.3, isotropic; from the middle of a face straight through, emitter points nearer than
-    /// 0.2 to the scattering point left out): its mean is
-    /// ∫₀¹ e^{−t} σ_s/(4π) ∫ σ_a L_e e^{−|p − x_t|} / |p − x_t|² dV dt over the cube beyond the cut
-    /// (midpoint rule, 64 distances × 64³ cells), for the homogeneous cube and the constant grid;
-    /// batch means by a t-test at the suite's significance.
-    #[test]
-    fn media_single_scattering_integrates_their_emission() {
-        use crate::estimate::volume::EyeSegment;
-        use crate::integrator::single::media_single_scattering;
-        let (sigma_a, sigma_s, le, near) = (0.7f32, 0.3f32, Rgb::new(2.0, 1.0, 0.5), 0.2f32);
-        let (o, w) = (Vec3::new(0.1, -0.2, 0.5), Vec3::new(0.0, 0.0, -1.0));
-        let (nt, n) = (64, 64);
-        let mut want = 0.0f64;
-        for i in 0..nt {
-            let t = (i as f32 + 0.5) / nt as f32;
-            let x = o + w * t;
-            let mut inner = 0.0f64;
-            for k in 0..n * n * n {
-                let c = Vec3::new((k % n) as f32, (k / n % n) as f32, (k / n / n) as f32);
-                let p = (c + 0.5) / n as f32 - 0.5;
-                let dist = (p - x).length();
-                if dist >= near {
-                    inner += ((-dist).exp() / (dist * dist)) as f64;
-                }
-            }
-            want += (-t as f64).exp() * inner / (n * n * n) as f64;
-        }
-        want *= (sigma_s * sigma_a) as f64 / (4.0 * std::f64::consts::PI) / nt as f64;
-        for (what, desc) in emitting_cubes(sigma_a, sigma_s, le) {
-            let scene = cube_scene(desc);
-            let m = &scene.media[0];
-            let segment = EyeSegment { o, w, t_max: 1.0 };
-            let want = le.to_array().map(|c| want * c as f64);
-            assert_channel_means(what, (5, Purpose::Other, 20_000), want, |s| {
-                let tr = m.segment(o, w, 1.0, s);
-                media_single_scattering(&scene, &segment, (0, m), &tr, near, s)
-            });
-        }
-    }
-
     /// The emitting unit cube, homogeneous and as the constant grid of box.vdb.
     fn emitting_cubes(sigma_a: f32, sigma_s: f32, le: Rgb) -> [(&'static str, MediumDesc); 2] {
         let homogeneous = MediumDesc::homogeneous(sigma_a, sigma_s).emission(le);
@@ -632,7 +683,11 @@ mod tests {
                 &format!("{what} at {x}"),
                 (4, Purpose::Other, 20_000),
                 want,
-                |s| media_next_event(&scene, x, medium, near, s, |w| Rgb::splat(f(w))),
+                |s| {
+                    // A small pool per estimate: the sharing of a pool is part of what is tested.
+                    let pool = EmitterPool::drawn(&scene, 16, s);
+                    media_next_event(&scene, x, medium, near, &pool, s, |w| Rgb::splat(f(w)))
+                },
             );
         }
     }
