@@ -62,6 +62,22 @@ fn media_images_are_bit_identical_across_thread_counts() {
     }
 }
 
+/// Next-event estimation towards an emitting grid (the campfire): each iteration's pool of
+/// emitter points is drawn entry by entry from streams of its own, so the image is the same on any
+/// number of threads; and the pool's seed matters.
+#[test]
+fn emitter_pool_images_are_bit_identical_across_thread_counts() {
+    let mut scene = Scene::load(scene_path("campfire.toml")).unwrap();
+    scene.set_resolution([100, 75]).unwrap();
+    assert!(scene.settings.emission_nee_distance.is_some());
+    let one = render_with(&scene, 1, 5);
+    for threads in [2, 3] {
+        assert!(one.pixels == render_with(&scene, threads, 5).pixels, "1 and {threads} threads");
+    }
+    assert!(one.pixels.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
+    assert!(one.pixels != render_with(&scene, 2, 6).pixels, "the seed changes nothing");
+}
+
 /// Photon guiding: the pilot's tallies are maxima, which concurrent updates leave the same in any
 /// order, so the guide — and every image it shapes — is the same on any number of threads.
 #[test]
