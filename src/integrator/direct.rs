@@ -196,7 +196,10 @@ pub(crate) fn media_next_event(
     s: &mut Sampler,
     f: impl Fn(Vec3) -> Rgb,
 ) -> Rgb {
-    let (mut chosen, mut chosen_target, mut total) = (None, 0.0f32, 0.0f32);
+    // The chosen candidate: its point, direction and distance from x, unshadowed contribution
+    // f σ_a L_e / |p − x|² (per channel) and its mean channel p̂.
+    let mut chosen: Option<(&EmitterPoint, Vec3, f32, Rgb, f32)> = None;
+    let mut total = 0.0f32;
     for _ in 0..MEDIA_CANDIDATES {
         let Some(e) = pool.pick(s) else { continue };
         let to = e.p - x;
@@ -204,45 +207,27 @@ pub(crate) fn media_next_event(
         if !(dist2 >= near * near && dist2 > 0.0) {
             continue;
         }
-        let target = luminance(f(to / dist2.sqrt()) * e.f) / dist2;
+        let dist = dist2.sqrt();
+        let wi = to / dist;
+        let unshadowed = f(wi) * e.f / dist2;
+        let target = luminance(unshadowed);
         let w = target / e.pdf;
         if !(w > 0.0 && w.is_finite()) {
             continue;
         }
         total += w;
         if s.next_f32() * total < w {
-            (chosen, chosen_target) = (Some(e), target);
+            chosen = Some((e, wi, dist, unshadowed, target));
         }
     }
-    let Some(e) = chosen else { return Rgb::ZERO };
-    let c = media_connection(scene, x, e, medium, near, s, f);
-    c * (total / MEDIA_CANDIDATES as f32 / chosen_target)
-}
-
-/// f(ω) σ_a(p) L_e(p) T(x, p) / |p − x|² for the emitter point `e` seen from `x` (in `medium`),
-/// zero if it is nearer than `near` (see [`media_next_event`]); to be divided by the densities of
-/// the point (and of `x`).
-pub(crate) fn media_connection(
-    scene: &Scene,
-    x: Vec3,
-    e: &EmitterPoint,
-    medium: Option<u32>,
-    near: f32,
-    s: &mut Sampler,
-    f: impl Fn(Vec3) -> Rgb,
-) -> Rgb {
-    let to = e.p - x;
-    let dist2 = to.length_squared();
-    if !(dist2 >= near * near && dist2 > 0.0) {
+    // A grid's point outside its medium (as the interfaces say) emits nothing there: asked of
+    // the chosen point alone.
+    let Some((e, wi, dist, unshadowed, target)) = chosen else { return Rgb::ZERO };
+    if !e.inside(scene) {
         return Rgb::ZERO;
     }
-    let dist = dist2.sqrt();
-    let wi = to / dist;
-    let fv = f(wi);
-    if fv.max_element() <= 0.0 || !e.inside(scene) {
-        return Rgb::ZERO;
-    }
-    fv * e.f * shadow_at_rate(scene, x, wi, dist, medium, MEDIA_SHADOW_RATE, s) / dist2
+    let tr = shadow_at_rate(scene, x, wi, dist, medium, MEDIA_SHADOW_RATE, s);
+    unshadowed * tr * (total / MEDIA_CANDIDATES as f32 / target)
 }
 
 /// The first surface that is not pass-through along `o + t d` (starting in `medium`), if it is

@@ -260,7 +260,7 @@ impl EmissiveMedia {
 
 /// Points of an emitting medium per pool: candidates of the next-event estimates of one
 /// iteration are picked from these (see [`EmitterPool`]).
-pub(crate) const POOL_POINTS: usize = 1 << 14;
+const POOL_POINTS: usize = 1 << 14;
 
 /// One iteration's pool of candidate emitter points ([`EmissiveMedia::sample_candidate`],
 /// drawn in advance), shared by every next-event estimate towards emitting media of the
