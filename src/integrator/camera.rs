@@ -15,7 +15,7 @@ use crate::estimate::Estimate;
 use crate::estimate::surface::{Gather, surface_radiance};
 use crate::estimate::volume::{EyeSegment, beam_radiance, point_radiance};
 use crate::math::{Rgb, luminance};
-use crate::medium::{Medium, SegmentTransmittance};
+use crate::medium::{BEAM_SEGMENT_RATE, Medium, SegmentTransmittance};
 use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
 use crate::photon::marks::GatherMarks;
@@ -194,7 +194,7 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
             VolumeEstimate::Beam => {
                 // One transmittance estimate per segment, shared by every photon on it and by the
                 // path's continuation.
-                let tr = m.segment(o, d, t_max, &mut path.s);
+                let tr = m.segment(o, d, t_max, BEAM_SEGMENT_RATE, &mut path.s);
                 let single = self.single(path, m, id, t_max, &tr);
                 path.l += path.beta * single;
                 let segment = EyeSegment { o, w: d, t_max };
@@ -209,7 +209,7 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
             }
             VolumeEstimate::Point => {
                 if self.pass.hybrid {
-                    let tr = m.segment(o, d, t_max, &mut path.s);
+                    let tr = m.segment(o, d, t_max, 1.0, &mut path.s);
                     let single = self.single(path, m, id, t_max, &tr);
                     path.l += path.beta * single;
                 }

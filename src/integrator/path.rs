@@ -124,7 +124,7 @@ impl EyeVisitor for PathEye<'_> {
         // Direct light scattered once anywhere along the segment (equiangular and
         // transmittance-proportional distances, MIS); the path itself goes on by free flight
         // and scatters for the higher orders.
-        let tr = m.segment(o, d, t_max, &mut path.s);
+        let tr = m.segment(o, d, t_max, 1.0, &mut path.s);
         let segment = EyeSegment { o, w: d, t_max };
         let scene = path.scene;
         path.l +=
