@@ -218,6 +218,14 @@ fn any<T>(_: &T) -> Result<(), String> {
     Ok(())
 }
 
+fn iteration_count(v: &u64) -> Result<(), String> {
+    if (1..=i64::MAX as u64).contains(v) {
+        Ok(())
+    } else {
+        Err(format!("must lie in 1..={} (a TOML integer), got {v}", i64::MAX))
+    }
+}
+
 fn at_least_one<T: Into<u64> + Copy>(v: &T) -> Result<(), String> {
     if (*v).into() >= 1 { Ok(()) } else { Err("must be at least 1".into()) }
 }
@@ -388,7 +396,7 @@ render_settings! {
     /// is up. On the command line `A..B` renders iterations A to B as a partial render, for
     /// `haze merge` (docs/distributed.md).
     [short = 'n', long, value_name = "N"]
-    iterations: u64, optional = Some(DEFAULT_ITERATIONS), at_least_one;
+    iterations: u64, optional = Some(DEFAULT_ITERATIONS), iteration_count;
 
     /// Time budget in seconds (on the command line a duration: 90, 90s, 1.5m, 1h); with an
     /// iteration count, the render stops at whichever comes first.

@@ -91,6 +91,22 @@ impl Reference {
                 error: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
             });
         }
+        // The header first: the reader sizes its buffers from the declared data window before
+        // it reads a pixel, so a small file declaring a vast image would abort the process.
+        let meta = exr::meta::MetaData::read_from_file(path, false)
+            .map_err(|e| err(format!("cannot read as an RGB OpenEXR reference: {e}")))?;
+        for header in meta.headers.iter() {
+            let size = header.layer_size;
+            let pixels = (size.width() as u64).saturating_mul(size.height() as u64);
+            if pixels > crate::scene::camera::MAX_PIXELS {
+                return Err(err(format!(
+                    "its header declares a {} × {} image, more than the {} pixels haze renders",
+                    size.width(),
+                    size.height(),
+                    crate::scene::camera::MAX_PIXELS
+                )));
+            }
+        }
         let image = read()
             .no_deep_data()
             .largest_resolution_level()

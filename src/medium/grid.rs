@@ -658,6 +658,8 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
             };
             drop(std::mem::take(&mut c.stored));
             let index = |q: IVec3| (q.x + count.x * (q.y + count.y * q.z)) as usize;
+            // A corrupt file can put voxels into a brick a tile already covers.
+            let mut overlap = None;
             for_each_item(read, path, name, |p, edge, v| {
                 let q = p - brick_lo;
                 if edge >= BRICK {
@@ -678,11 +680,24 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
                         b.table[k] = (b.pool.len() / BRICK_VOXELS) as u32;
                         b.pool.resize(b.pool.len() + BRICK_VOXELS, 0.0);
                     }
+                    if b.table[k] & CONSTANT != 0 {
+                        overlap.get_or_insert(p);
+                        return;
+                    }
                     let l = q & (BRICK - 1);
                     b.pool[b.table[k] as usize * BRICK_VOXELS
                         + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
                 }
             })?;
+            if let Some(p) = overlap {
+                return Err(volume_error(
+                    path,
+                    format!(
+                        "grid `{name}`: corrupt data (voxel {} {} {} lies in a tile)",
+                        p.x, p.y, p.z
+                    ),
+                ));
+            }
             let dims = (c.hi - brick_lo) + IVec3::ONE;
             (brick_lo, dims, Storage::Bricks(b))
         }

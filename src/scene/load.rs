@@ -40,7 +40,8 @@ pub(super) fn load_file(path: &Path) -> Result<Scene> {
 
 /// 1-based line of byte offset `at` in `text`.
 fn line_of(text: &str, at: usize) -> usize {
-    text[..at.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1
+    // Bytes, not a string slice: an offset inside a character must not panic.
+    text.as_bytes()[..at.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
 }
 
 /// Maps builder errors (keys without a place) to the file and the line of the table they came

@@ -1,6 +1,7 @@
 //! The `haze` binary: exit codes and one-line errors.
 
 use crate::common::{scene_path, temp_dir};
+use std::path::Path;
 use std::process::Command;
 
 fn haze(args: &[&str]) -> (bool, String) {
@@ -347,8 +348,16 @@ fn bench_rays_reports_every_set_and_query() {
             }
         }
     }
-    let (ok, err) = haze(&["bench", "rays", scene.to_str().unwrap(), "--rays", "0"]);
-    assert!(!ok && err.contains("--rays"), "{err}");
+    // None, or more than memory holds (allocating them would abort the process).
+    for rays in ["0", "100000000000"] {
+        let (ok, err) = haze(&["bench", "rays", scene.to_str().unwrap(), "--rays", rays]);
+        assert!(!ok && err.contains("--rays"), "{rays}: {err}");
+    }
+    let cloud = Path::new(env!("CARGO_MANIFEST_DIR")).join("media/cloud.vdb");
+    for lookups in ["0", "100000000000"] {
+        let (ok, err) = haze(&["bench", "grid", cloud.to_str().unwrap(), "--lookups", lookups]);
+        assert!(!ok && err.contains("--lookups"), "{lookups}: {err}");
+    }
     let (ok, err) = haze(&["bench", "rays", scene.to_str().unwrap(), "--threads", "0"]);
     assert!(!ok && err.contains("--threads 0"), "{err}");
 }

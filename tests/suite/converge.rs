@@ -65,10 +65,22 @@ fn reference_files_round_trip() {
     assert_eq!(p.variance_layer.as_ref(), img.variance.as_ref());
     assert!(p.description.is_none());
     assert_eq!(p.pixels, img.pixels);
-    // Not a file, or not an EXR: errors naming the file.
+    // Not a file, or not an EXR, or an EXR whose header declares a vast image (the plain
+    // render's data window patched to 10⁶ × 10⁶ pixels: the reader would size its buffers
+    // from it and abort): errors naming the file.
     let junk = dir.join("junk.exr");
     std::fs::write(&junk, b"not an exr").unwrap();
-    for bad in [dir.join("missing.exr"), junk] {
+    let mut bytes = std::fs::read(&plain).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes.windows(key.len()).position(|w| w == key).unwrap() + key.len() + 4;
+    for corner in [at + 8, at + 12] {
+        bytes[corner..corner + 4].copy_from_slice(&999_999i32.to_le_bytes());
+    }
+    let vast = dir.join("vast.exr");
+    std::fs::write(&vast, bytes).unwrap();
+    let e = Reference::load(&vast).unwrap_err().to_string();
+    assert!(e.contains("1000000 × 1000000"), "{e}");
+    for bad in [dir.join("missing.exr"), junk, vast] {
         let e = Reference::load(&bad).unwrap_err().to_string();
         assert!(e.contains(bad.file_name().unwrap().to_str().unwrap()), "{e}");
     }

@@ -229,6 +229,12 @@ fn impossible_limits_are_refused_up_front() {
         assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: `{err}` lacks `{needle}`");
     }
+    // An iteration index past TOML's integers (the count of a range would overflow).
+    let last = "18446744073709551615";
+    let o = haze().args(["render", scene, "-n", &format!("{last}..{last}")]).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("iterations") && err.contains("9223372036854775807"), "{err}");
 }
 
 /// A VDB medium of extinction 10³⁰ per unit density: every tracking through a cell's empty

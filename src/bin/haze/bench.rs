@@ -49,6 +49,11 @@ pub(crate) struct GridArgs {
 /// `haze bench grid`: a Markdown table, one row per layout and round.
 fn grid(args: GridArgs) -> Result<()> {
     use haze::scene::GridLayout;
+    // The lookup points are held in memory (12 bytes each).
+    const MAX_LOOKUPS: usize = 1 << 27;
+    if !(1..=MAX_LOOKUPS).contains(&args.lookups) || !(1..=1000).contains(&args.rounds) {
+        bail!("--lookups must lie in 1..={MAX_LOOKUPS} and --rounds in 1..=1000");
+    }
     println!(
         "{} grid `{}`, {} lookups per row, 1 thread",
         args.file.display(),

@@ -36,8 +36,11 @@ type Rates = BTreeMap<(String, &'static str, usize), (f64, usize)>;
 
 pub(crate) fn run(args: RaysArgs) -> Result<()> {
     let path = args.scene.unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
-    if args.rays == 0 || !(args.seconds > 0.0 && args.seconds <= 600.0) {
-        bail!("--rays must be at least 1 and --seconds in (0, 600]");
+    // Three sets of this many rays are held in memory (28 bytes a ray).
+    const MAX_RAYS: usize = 1 << 24;
+    let seconds_ok = args.seconds > 0.0 && args.seconds <= 600.0;
+    if !((1..=MAX_RAYS).contains(&args.rays) && seconds_ok) {
+        bail!("--rays must lie in 1..={MAX_RAYS} and --seconds in (0, 600]");
     }
     if let Some(&t) = args.threads.iter().find(|&&t| t == 0 || t > crate::max_threads()) {
         bail!("--threads {t}: each count must lie in 1..={}", crate::max_threads());
