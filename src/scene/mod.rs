@@ -38,7 +38,11 @@ pub(crate) fn read_bounded(path: &Path, max: u64, what: &str) -> Result<Vec<u8>>
     let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
     let len = check_file(path, max, what)?;
     let file = std::fs::File::open(path).map_err(io)?;
-    let mut bytes = Vec::with_capacity(len as usize);
+    // A large file (a sparse one can claim terabytes) must not abort the process by its size.
+    let mut bytes = Vec::new();
+    bytes.try_reserve_exact(len as usize).map_err(|_| {
+        refusal(path, format!("is {len} bytes, more than this machine can hold to read {what}"))
+    })?;
     file.take(max + 1).read_to_end(&mut bytes).map_err(io)?;
     if bytes.len() as u64 > max {
         return Err(refusal(path, format!("grew past {max} bytes while being read")));

@@ -150,6 +150,12 @@ fn partial_files_round_trip_and_refuse_corruption() {
     let f = dir.join("short.hpr");
     std::fs::write(&f, &bytes[..bytes.len() - 1]).unwrap();
     assert!(Partial::read(&f).unwrap_err().to_string().contains("truncated"));
+    // A (sparse) file larger than any partial render can be is refused by its size, unread.
+    let f = dir.join("vast.hpr");
+    std::fs::File::create(&f).unwrap().set_len((1 << 35) + 1).unwrap();
+    let e = Partial::read(&f).unwrap_err().to_string();
+    std::fs::remove_file(&f).unwrap();
+    assert!(e.contains("vast.hpr") && e.contains("bytes"), "{e}");
 }
 
 /// A partial file of format 1 (before the kernel-bias sums) is still read: a path-traced
