@@ -658,8 +658,6 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
             };
             drop(std::mem::take(&mut c.stored));
             let index = |q: IVec3| (q.x + count.x * (q.y + count.y * q.z)) as usize;
-            // A corrupt file can put voxels into a brick a tile already covers.
-            let mut overlap = None;
             for_each_item(read, path, name, |p, edge, v| {
                 let q = p - brick_lo;
                 if edge >= BRICK {
@@ -681,23 +679,18 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
                         b.pool.resize(b.pool.len() + BRICK_VOXELS, 0.0);
                     }
                     if b.table[k] & CONSTANT != 0 {
-                        overlap.get_or_insert(p);
-                        return;
+                        // A voxel in a brick a tile covers (two root nodes at one origin in a
+                        // corrupt file): the brick becomes the tile's value with the voxel
+                        // written over it, as the dense layout stores it.
+                        let c = b.constants[(b.table[k] & !CONSTANT) as usize];
+                        b.table[k] = (b.pool.len() / BRICK_VOXELS) as u32;
+                        b.pool.resize(b.pool.len() + BRICK_VOXELS, c);
                     }
                     let l = q & (BRICK - 1);
                     b.pool[b.table[k] as usize * BRICK_VOXELS
                         + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
                 }
             })?;
-            if let Some(p) = overlap {
-                return Err(volume_error(
-                    path,
-                    format!(
-                        "grid `{name}`: corrupt data (voxel {} {} {} lies in a tile)",
-                        p.x, p.y, p.z
-                    ),
-                ));
-            }
             let dims = (c.hi - brick_lo) + IVec3::ONE;
             (brick_lo, dims, Storage::Bricks(b))
         }
@@ -734,6 +727,24 @@ fn floor(v: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A corrupt file with two root nodes at one origin, a 128³ tile of 1 in the first and a leaf
+    /// with a voxel of 2 at the origin in the second (tests/fuzz-corpus/vdb/tile-overlap.vdb:
+    /// pyopenvdb wrote the tile at the origin and the voxel at (4096, 0, 0), then the second root
+    /// node's origin was patched to (0, 0, 0)): the bricks layout stores it as the dense one does,
+    /// the voxel over the tile, instead of indexing its pool with the tile's table entry.
+    #[test]
+    fn a_voxel_in_a_tile_is_stored_alike_in_both_layouts() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz-corpus/vdb/tile-overlap.vdb");
+        let dense = DensityGrid::load_with(&path, "density", Layout::Dense).unwrap();
+        let bricks = DensityGrid::load_with(&path, "density", Layout::Bricks).unwrap();
+        assert!(matches!(bricks.storage, Storage::Bricks(_)));
+        for (i, v) in [(IVec3::ZERO, 2.0), (IVec3::new(1, 0, 0), 1.0), (IVec3::splat(127), 1.0)] {
+            assert_eq!((dense.voxel(i), bricks.voxel(i)), (v, v), "voxel {i}");
+        }
+        assert_eq!(bricks.voxel(IVec3::splat(128)), 0.0);
+    }
 
     /// The libm-free floor is `f32::floor`, bit for bit but for the sign of a zero: at and
     /// around integers, over the range a grid index takes, at the limits of exactness and
