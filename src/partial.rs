@@ -39,6 +39,36 @@ pub struct Partial {
     pub output: Option<PathBuf>,
 }
 
+/// The most bytes a partial render can hold for the image size its header states: magic,
+/// version, the header and its length, the state and its length (at most 88 bytes a pixel and 8
+/// more), four layers of sums (48 bytes a pixel each) and the checksum. Reads only the file's
+/// first bytes; a header it cannot read gives the bound of the largest image, and [`Partial::read`]
+/// reports what is wrong with it.
+fn size_bound(path: &Path) -> Result<u64> {
+    use std::io::Read;
+    let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
+    let mut prefix = Vec::new();
+    let file = std::fs::File::open(path).map_err(io)?;
+    file.take(20 + MAX_HEADER).read_to_end(&mut prefix).map_err(io)?;
+    let per_pixel = 88 + 4 * 48;
+    let largest = 20 + MAX_HEADER + 16 + 32 + per_pixel * crate::scene::MAX_PIXELS;
+    let n = prefix.get(12..20).map_or(0, |b| u64::from_le_bytes(b.try_into().unwrap_or_default()));
+    let n = n.min(MAX_HEADER);
+    let header = prefix.get(20..(20 + n) as usize);
+    let table = header
+        .and_then(|h| std::str::from_utf8(h).ok())
+        .and_then(|h| h.parse::<toml::Table>().ok());
+    let int = |t: &toml::Table, k: &str| t.get(k).and_then(|v| v.as_integer());
+    let pixels = table.as_ref().and_then(|t| {
+        let (w, h) = (int(t, "width")?, int(t, "height")?);
+        (w > 0 && h > 0).then(|| (w as u64).saturating_mul(h as u64))
+    });
+    Ok(match pixels {
+        Some(p) if p <= crate::scene::MAX_PIXELS => 20 + n + 16 + 32 + per_pixel * p,
+        _ => largest,
+    })
+}
+
 fn part_err(path: &Path, message: impl Into<String>) -> Error {
     Error::Output { path: path.to_path_buf(), message: message.into() }
 }
@@ -246,8 +276,17 @@ impl Partial {
     pub fn read(path: &Path) -> Result<Partial> {
         let err = |m: String| part_err(path, m);
         // The largest partial render holds 192 bytes a pixel of sums and 88 of the original
-        // PPM's state at 2²⁶ pixels (18.8 GB) and a header: 32 GiB bounds any real one.
-        let bytes = crate::scene::read_bounded(path, 1 << 35, "a partial render")?;
+        // PPM's state at 2²⁶ pixels (18.8 GB) and a header: 32 GiB bounds any real one, and
+        // the image size its header states bounds this one before the rest is read.
+        let len = crate::scene::check_file(path, 1 << 35, "a partial render")?;
+        let bound = size_bound(path)?;
+        if len > bound {
+            return Err(err(format!(
+                "{len} bytes, more than a partial render of the size its header states can be \
+                 ({bound} bytes; corrupt file)"
+            )));
+        }
+        let bytes = crate::scene::read_bounded(path, bound, "a partial render")?;
         let mut at = 0usize;
         let mut take = |n: u64, what: &str| -> Result<&[u8]> {
             let end = (at as u64).checked_add(n).filter(|&e| e <= bytes.len() as u64);

@@ -95,14 +95,19 @@ impl Reference {
         // it reads a pixel, so a small file declaring a vast image would abort the process.
         let meta = exr::meta::MetaData::read_from_file(path, false)
             .map_err(|e| err(format!("cannot read as an RGB OpenEXR reference: {e}")))?;
+        // Every layer is allocated before any is read: their sizes are bounded together.
+        let mut total = 0u64;
         for header in meta.headers.iter() {
             let size = header.layer_size;
             let pixels = (size.width() as u64).saturating_mul(size.height() as u64);
-            if pixels > crate::scene::camera::MAX_PIXELS {
+            total = total.saturating_add(pixels);
+            if total > 4 * crate::scene::camera::MAX_PIXELS {
                 return Err(err(format!(
-                    "its header declares a {} × {} image, more than the {} pixels haze renders",
+                    "its header declares a {} × {} image{}, more than haze reads (4 layers of \
+                     {} pixels)",
                     size.width(),
                     size.height(),
+                    if meta.headers.len() > 1 { " among its layers" } else { "" },
                     crate::scene::camera::MAX_PIXELS
                 )));
             }

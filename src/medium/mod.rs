@@ -118,8 +118,9 @@ pub struct TransmittanceDistance<'a> {
     areas: StepAreas,
 }
 
-/// Cumulative areas under a step function, on the stack for up to 32 steps.
-type StepAreas = SmallVec<[f32; 32]>;
+/// Cumulative areas under a step function (one more than its steps), on the stack for up to 35
+/// steps (smallvec's sizes past 32 are 36 and powers of two).
+type StepAreas = SmallVec<[f32; 36]>;
 
 impl<'a> TransmittanceDistance<'a> {
     /// The distribution over [t0, t1] for the segment's transmittance `tr`; `None` if it has no

@@ -614,7 +614,7 @@ impl VdbMedium {
             if mu <= 0.0 {
                 return true;
             }
-            if mu * (b - a) <= self.split_steps {
+            if mu * rate * (b - a) <= self.split_steps {
                 return track(mu * rate, a, b, s);
             }
             // Many tentative collisions expected in this cell: its majorant may dwarf the
@@ -630,7 +630,7 @@ impl VdbMedium {
                     continue;
                 }
                 let m = 0.5 * (a + b);
-                if mu * (b - a) > self.split_steps
+                if mu * rate * (b - a) > self.split_steps
                     && hi > 2.0 * lo
                     && depth < MAX_SPLITS
                     && a < m
@@ -964,13 +964,17 @@ mod tests {
                 if m.sample_free_flight(o, Vec3::X, len, s).scattered { 0.0 } else { 1.0 }
             });
             assert_agrees(&format!("delta tracking, split {split}"), &passes, (-tau).exp(), 0.0);
-            // The beam estimate's step function is a ratio-tracking estimate at every t.
-            let half = batches(4000, 20, seed + 3, |s| {
-                m.segment(o, Vec3::X, len, BEAM_SEGMENT_RATE, s).at(len / 2.0).x as f64
-            });
+            // The step function is a ratio-tracking estimate at every t: at the beam estimate's
+            // rate, and at rate 1 as single scattering in the path tracer uses it.
             let mid = a + (b - a) / 2.0;
             let tau_half = (sigma * scale) as f64 * ((mid * mid - a * a) / 2.0 + (mid - a) / 64.0);
-            assert_agrees(&format!("segment at t/2, split {split}"), &half, (-tau_half).exp(), 0.0);
+            for (j, rate) in [BEAM_SEGMENT_RATE, 1.0].into_iter().enumerate() {
+                let half = batches(4000, 20, seed + 3 + 100 * j as u64, |s| {
+                    m.segment(o, Vec3::X, len, rate, s).at(len / 2.0).x as f64
+                });
+                let what = format!("segment at t/2, rate {rate}, split {split}");
+                assert_agrees(&what, &half, (-tau_half).exp(), 0.0);
+            }
         }
     }
 
@@ -1137,11 +1141,13 @@ mod tests {
                 m.transmittance_at_rate(o, Vec3::X, len, 4.0, s)[c] as f64
             });
             assert_agrees(&format!("ratio tracking at rate 4, channel {c}"), &rated, tr, 0.0);
-            let half = batches(4000, 20, seed + 1, |s| {
-                m.segment(o, Vec3::X, len, BEAM_SEGMENT_RATE, s).at(len / 2.0)[c] as f64
-            });
             let want = (-depth(c, len as f64 / 2.0)).exp();
-            assert_agrees(&format!("steps at t/2, channel {c}"), &half, want, 0.0);
+            for (j, rate) in [BEAM_SEGMENT_RATE, 1.0].into_iter().enumerate() {
+                let half = batches(4000, 20, seed + 1 + 100 * j as u64, |s| {
+                    m.segment(o, Vec3::X, len, rate, s).at(len / 2.0)[c] as f64
+                });
+                assert_agrees(&format!("steps at t/2, rate {rate}, channel {c}"), &half, want, 0.0);
+            }
             let (mut pass, mut hit) = (Vec::new(), Vec::new());
             for k in 0..20 {
                 let (mut sp, mut sh) = (0.0f64, 0.0f64);

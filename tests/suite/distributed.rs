@@ -150,12 +150,19 @@ fn partial_files_round_trip_and_refuse_corruption() {
     let f = dir.join("short.hpr");
     std::fs::write(&f, &bytes[..bytes.len() - 1]).unwrap();
     assert!(Partial::read(&f).unwrap_err().to_string().contains("truncated"));
-    // A (sparse) file larger than any partial render can be is refused by its size, unread.
+    // A (sparse) file larger than any partial render can be, or than one of the image size its
+    // header states, is refused by its size, unread.
     let f = dir.join("vast.hpr");
     std::fs::File::create(&f).unwrap().set_len((1 << 35) + 1).unwrap();
     let e = Partial::read(&f).unwrap_err().to_string();
     std::fs::remove_file(&f).unwrap();
     assert!(e.contains("vast.hpr") && e.contains("bytes"), "{e}");
+    let f = dir.join("long.hpr");
+    std::fs::write(&f, &bytes).unwrap();
+    std::fs::OpenOptions::new().write(true).open(&f).unwrap().set_len(1 << 34).unwrap();
+    let e = Partial::read(&f).unwrap_err().to_string();
+    std::fs::remove_file(&f).unwrap();
+    assert!(e.contains("long.hpr") && e.contains("size its header states"), "{e}");
 }
 
 /// A partial file of format 1 (before the kernel-bias sums) is still read: a path-traced
