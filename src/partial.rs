@@ -39,23 +39,32 @@ pub struct Partial {
     pub output: Option<PathBuf>,
 }
 
-/// The most bytes a partial render can hold for the image size its header states: magic,
-/// version, the header and its length, the state and its length (at most 88 bytes a pixel and 8
-/// more), four layers of sums (48 bytes a pixel each) and the checksum. Reads only the file's
-/// first bytes; a header it cannot read gives the bound of the largest image, and [`Partial::read`]
-/// reports what is wrong with it.
+/// Bytes before the header: magic, version and the header's length.
+const PREFIX_BYTES: u64 = 8 + 4 + 8;
+
+/// The most bytes a partial render of `pixels` pixels with a header of `header` bytes can hold:
+/// the prefix, the header, the state's length and the state (the original PPM's, the largest),
+/// four layers of sums (three i128 a pixel each) and the checksum.
+fn most_bytes(pixels: u64, header: u64) -> u64 {
+    let state = 8 + crate::integrator::original::STATE_BYTES as u64 * pixels;
+    PREFIX_BYTES + header + 8 + state + 4 * 48 * pixels + 32
+}
+
+/// [`most_bytes`] for the image size the file's header states, reading only its first bytes; a
+/// header it cannot read gives the bound of the largest image, and [`Partial::read`] reports what
+/// is wrong with it. `path` must be a regular file ([`crate::scene::check_file`]).
 fn size_bound(path: &Path) -> Result<u64> {
     use std::io::Read;
     let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
     let mut prefix = Vec::new();
     let file = std::fs::File::open(path).map_err(io)?;
-    file.take(20 + MAX_HEADER).read_to_end(&mut prefix).map_err(io)?;
-    let per_pixel = 88 + 4 * 48;
-    let largest = 20 + MAX_HEADER + 16 + 32 + per_pixel * crate::scene::MAX_PIXELS;
-    let n = prefix.get(12..20).map_or(0, |b| u64::from_le_bytes(b.try_into().unwrap_or_default()));
+    file.take(PREFIX_BYTES + MAX_HEADER).read_to_end(&mut prefix).map_err(io)?;
+    let at = PREFIX_BYTES as usize;
+    let n =
+        prefix.get(at - 8..at).map_or(0, |b| u64::from_le_bytes(b.try_into().unwrap_or_default()));
     let n = n.min(MAX_HEADER);
-    let header = prefix.get(20..(20 + n) as usize);
-    let table = header
+    let table = prefix
+        .get(at..at + n as usize)
         .and_then(|h| std::str::from_utf8(h).ok())
         .and_then(|h| h.parse::<toml::Table>().ok());
     let int = |t: &toml::Table, k: &str| t.get(k).and_then(|v| v.as_integer());
@@ -64,8 +73,8 @@ fn size_bound(path: &Path) -> Result<u64> {
         (w > 0 && h > 0).then(|| (w as u64).saturating_mul(h as u64))
     });
     Ok(match pixels {
-        Some(p) if p <= crate::scene::MAX_PIXELS => 20 + n + 16 + 32 + per_pixel * p,
-        _ => largest,
+        Some(p) if p <= crate::scene::MAX_PIXELS => most_bytes(p, n),
+        _ => most_bytes(crate::scene::MAX_PIXELS, MAX_HEADER),
     })
 }
 
@@ -275,18 +284,12 @@ impl Partial {
     /// Reads a partial-render file, checking its structure and checksum.
     pub fn read(path: &Path) -> Result<Partial> {
         let err = |m: String| part_err(path, m);
-        // The largest partial render holds 192 bytes a pixel of sums and 88 of the original
-        // PPM's state at 2²⁶ pixels (18.8 GB) and a header: 32 GiB bounds any real one, and
-        // the image size its header states bounds this one before the rest is read.
-        let len = crate::scene::check_file(path, 1 << 35, "a partial render")?;
-        let bound = size_bound(path)?;
-        if len > bound {
-            return Err(err(format!(
-                "{len} bytes, more than a partial render of the size its header states can be \
-                 ({bound} bytes; corrupt file)"
-            )));
-        }
-        let bytes = crate::scene::read_bounded(path, bound, "a partial render")?;
+        // Past the largest partial render (18.8 GB), or past the most one of the image size its
+        // header states can hold, a file is refused before it is read.
+        let largest = most_bytes(crate::scene::MAX_PIXELS, MAX_HEADER);
+        crate::scene::check_file(path, largest, "a partial render")?;
+        let what = "a partial render of the size its header states";
+        let bytes = crate::scene::read_bounded(path, size_bound(path)?, what)?;
         let mut at = 0usize;
         let mut take = |n: u64, what: &str| -> Result<&[u8]> {
             let end = (at as u64).checked_add(n).filter(|&e| e <= bytes.len() as u64);

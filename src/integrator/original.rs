@@ -160,7 +160,7 @@ impl OriginalPpm {
 }
 
 /// Bytes of one pixel's saved statistics (11 f64).
-const STATE_BYTES: usize = 88;
+pub(crate) const STATE_BYTES: usize = 88;
 
 /// One pixel's statistics.
 #[derive(Clone, Copy, Debug)]

@@ -78,18 +78,18 @@ const EMISSION_ROULETTE: f32 = 0.01;
 /// the far side carrying a negligible estimate (at rate 4 about 4 steps per mean free path).
 const TRACKING_ROULETTE: f32 = 0.05;
 
-/// Russian roulette on a ratio-tracking estimate `tr` (its largest channel `m`) below
-/// [`TRACKING_ROULETTE`]: the walk goes on with probability m / [`TRACKING_ROULETTE`], its
-/// estimate divided by that probability, and otherwise ends at zero. Every later value of the
-/// estimate keeps its expectation, so a step function's every prefix stays unbiased.
+/// Russian roulette on a ratio-tracking estimate whose largest channel is `m`: below
+/// [`TRACKING_ROULETTE`] the walk goes on with probability m / [`TRACKING_ROULETTE`], its
+/// estimate divided by that probability, and otherwise ends at zero. Returns the factor to
+/// multiply the estimate by (1 above the threshold). Every later value of the estimate keeps its
+/// expectation, so a step function's every prefix stays unbiased.
 #[inline]
-fn roulette(tr: Rgb, s: &mut Sampler) -> Rgb {
-    let m = tr.max_element();
+fn roulette(m: f32, s: &mut Sampler) -> f32 {
     if m >= TRACKING_ROULETTE || m <= 0.0 {
-        return tr;
+        return 1.0;
     }
     let survive = m / TRACKING_ROULETTE;
-    if s.next_f32() < survive { tr / survive } else { Rgb::ZERO }
+    if s.next_f32() < survive { 1.0 / survive } else { 0.0 }
 }
 
 /// Largest number of bisections of one cell's piece of a ray.
@@ -795,14 +795,16 @@ impl VdbMedium {
             let mut tr = Rgb::ONE;
             let complete = self.tentative(o, d, t_max, rate, s, |t, sigma_t, mu, s| {
                 let tint = self.tint_at(o + d * t);
-                tr = roulette((tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO), s);
+                tr = (tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO);
+                tr *= roulette(tr.max_element(), s);
                 tr.max_element() > 0.0
             });
             return if complete { tr } else { Rgb::ZERO };
         }
         let mut tr = 1.0f32;
         let complete = self.tentative(o, d, t_max, rate, s, |_, sigma_t, mu, s| {
-            tr = roulette(Rgb::splat((tr * (1.0 - sigma_t / mu)).max(0.0)), s).x;
+            tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
+            tr *= roulette(tr, s);
             tr > 0.0
         });
         if !complete {
@@ -826,14 +828,16 @@ impl VdbMedium {
             let mut tr = Rgb::ONE;
             self.tentative(o, d, t_max, rate, s, |t, sigma_t, mu, s| {
                 let tint = self.tint_at(o + d * t);
-                tr = roulette((tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO), s);
+                tr = (tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO);
+                tr *= roulette(tr.max_element(), s);
                 steps.push((t, tr));
                 tr.max_element() > 0.0
             })
         } else {
             let mut tr = 1.0f32;
             self.tentative(o, d, t_max, rate, s, |t, sigma_t, mu, s| {
-                tr = roulette(Rgb::splat((tr * (1.0 - sigma_t / mu)).max(0.0)), s).x;
+                tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
+                tr *= roulette(tr, s);
                 steps.push((t, Rgb::splat(tr)));
                 tr > 0.0
             })
