@@ -63,7 +63,7 @@ const CONSTANT: u32 = 1 << 31;
 // … or otherwise the index of a stored brick.
 
 /// How a grid's voxels are stored.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Layout {
     /// Dense where the box is well filled, bricks where it is mostly empty (module docs).
     #[default]
@@ -127,8 +127,9 @@ pub struct DensityGrid {
     pub origin: IVec3,
     /// Voxels stored along each axis.
     pub dims: IVec3,
-    /// The voxels, dense or in bricks.
-    storage: Storage,
+    /// The voxels, dense or in bricks: shared by the clones of a grid (a grid a scene references
+    /// several times is stored once), copied only if one of them is scaled.
+    storage: std::sync::Arc<Storage>,
     /// World position of index (0, 0, 0) (voxel centres are at integer indices).
     pub translation: Vec3,
     /// World size of a voxel along each axis.
@@ -181,15 +182,20 @@ impl DensityGrid {
 
     /// The layout the voxels are stored in ([`Layout::Dense`] or [`Layout::Bricks`]).
     pub fn layout(&self) -> Layout {
-        match self.storage {
+        match *self.storage {
             Storage::Dense(_) => Layout::Dense,
             Storage::Bricks(_) => Layout::Bricks,
         }
     }
 
+    /// Identifies the stored voxels: equal for clones that share them.
+    pub(crate) fn storage_id(&self) -> usize {
+        std::sync::Arc::as_ptr(&self.storage) as usize
+    }
+
     /// Bytes of the stored voxels (the dense array, or the brick table, constants and bricks).
     pub fn stored_bytes(&self) -> usize {
-        match &self.storage {
+        match &*self.storage {
             Storage::Dense(d) => 4 * d.len(),
             Storage::Bricks(b) => 4 * (b.table.len() + b.constants.len() + b.pool.len()),
         }
@@ -197,7 +203,10 @@ impl DensityGrid {
 
     /// Multiplies every value by `k`.
     pub(crate) fn scale_values(&mut self, k: f32) {
-        let values = match &mut self.storage {
+        if k == 1.0 {
+            return;
+        }
+        let values = match std::sync::Arc::make_mut(&mut self.storage) {
             Storage::Dense(d) => d.as_mut_slice(),
             Storage::Bricks(b) => {
                 b.constants.iter_mut().for_each(|c| *c *= k);
@@ -213,7 +222,7 @@ impl DensityGrid {
         let values = |v: &[f32], feed: &mut dyn FnMut(&[u8])| {
             v.iter().for_each(|d| feed(&d.to_le_bytes()));
         };
-        match &self.storage {
+        match &*self.storage {
             Storage::Dense(d) => values(d, feed),
             Storage::Bricks(b) => {
                 b.table.iter().for_each(|e| feed(&e.to_le_bytes()));
@@ -232,32 +241,34 @@ impl DensityGrid {
         let m = MAJORANT_CELL;
         let slice = (cells.x * cells.y) as usize;
         let mut out = vec![0.0f32; slice * cells.z as usize];
-        // Largest value of each brick (sparse layout).
-        let brick_max: Vec<f32> = match &self.storage {
+        // Largest value of each stored brick (sparse layout; constant bricks are their value).
+        let pool_max: Vec<f32> = match &*self.storage {
             Storage::Dense(_) => Vec::new(),
             Storage::Bricks(b) => b
-                .table
-                .par_iter()
-                .map(|&e| {
-                    if e == EMPTY {
-                        0.0
-                    } else if e & CONSTANT != 0 {
-                        b.constants[(e & !CONSTANT) as usize]
-                    } else {
-                        let start = e as usize * BRICK_VOXELS;
-                        b.pool[start..start + BRICK_VOXELS].iter().fold(0.0f32, |a, v| a.max(*v))
-                    }
-                })
+                .pool
+                .par_chunks(BRICK_VOXELS)
+                .map(|brick| brick.iter().fold(0.0f32, |a, v| a.max(*v)))
                 .collect(),
+        };
+        let brick_max = |b: &Bricks, e: u32| {
+            if e == EMPTY {
+                0.0
+            } else if e & CONSTANT != 0 {
+                b.constants[(e & !CONSTANT) as usize]
+            } else {
+                pool_max[e as usize]
+            }
         };
         out.par_chunks_mut(slice).enumerate().for_each(|(cz, plane)| {
             for cy in 0..cells.y {
                 for cx in 0..cells.x {
                     let base = lo + IVec3::new(cx, cy, cz as i32) * m;
-                    // Bricks skip the cells they know to be empty.
+                    // Bricks skip the cells they know to be empty, and need no voxel lookups
+                    // where every brick the cell's range touches is constant (a tile).
                     let mut bound = f32::INFINITY;
-                    if let Storage::Bricks(b) = &self.storage {
+                    if let Storage::Bricks(b) = &*self.storage {
                         bound = 0.0;
+                        let mut constant = true;
                         // The bricks the range [base, base + m] touches, within the table.
                         let first: IVec3 = ((base - self.origin) >> 3i32).max(IVec3::ZERO);
                         let last: IVec3 =
@@ -266,9 +277,17 @@ impl DensityGrid {
                             for y in first.y..=last.y {
                                 for x in first.x..=last.x {
                                     let k = x + b.count.x * (y + b.count.y * z);
-                                    bound = bound.max(brick_max[k as usize]);
+                                    let e = b.table[k as usize];
+                                    bound = bound.max(brick_max(b, e));
+                                    constant &= e == EMPTY || e & CONSTANT != 0;
                                 }
                             }
+                        }
+                        if constant {
+                            // Every voxel of those bricks holds its brick's value (and voxels
+                            // outside the table are zero): the bound is the largest value.
+                            plane[(cx + cells.x * cy) as usize] = bound;
+                            continue;
                         }
                     }
                     let mut v = 0.0f32;
@@ -288,6 +307,38 @@ impl DensityGrid {
         out
     }
 
+    /// Lower and upper bounds of the (scaled) values on the index-space segment from `q0` to
+    /// `q1`. Within one interpolation cell (between eight voxel centres) the density is
+    /// multilinear, so its extremes over the box spanned by the segment are at the box's corners;
+    /// across cells, every voxel of the cells the box touches bounds it. The upper bound is
+    /// raised by a few ulps for the rounding of trilinear lookups.
+    pub(crate) fn bounds(&self, q0: Vec3, q1: Vec3) -> (f32, f32) {
+        let (mn, mx) = (q0.min(q1), q0.max(q1));
+        let (i0, i1) = (mn.floor().as_ivec3(), mx.floor().as_ivec3());
+        let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+        if i0 == i1 {
+            for k in 0..8 {
+                let pick = |bit: i32, a: f32, b: f32| if k & bit == 0 { a } else { b };
+                let q = Vec3::new(pick(1, mn.x, mx.x), pick(2, mn.y, mx.y), pick(4, mn.z, mx.z));
+                let v = self.density_index(q);
+                (lo, hi) = (lo.min(v), hi.max(v));
+            }
+        } else if (i1 - i0 + IVec3::splat(2)).as_i64vec3().element_product() > 4096 {
+            // A long piece of a ray in a fine grid: the grid's own bounds (valid, loose).
+            return (0.0, self.max_density * (1.0 + 1e-5));
+        } else {
+            for z in i0.z..=i1.z + 1 {
+                for y in i0.y..=i1.y + 1 {
+                    for x in i0.x..=i1.x + 1 {
+                        let v = self.voxel(IVec3::new(x, y, z));
+                        (lo, hi) = (lo.min(v), hi.max(v));
+                    }
+                }
+            }
+        }
+        (lo, hi * (1.0 + 1e-5))
+    }
+
     /// Density at index `i` (zero outside the stored box).
     #[inline]
     pub fn voxel(&self, i: IVec3) -> f32 {
@@ -295,7 +346,7 @@ impl DensityGrid {
         if q.cmplt(IVec3::ZERO).any() || q.cmpge(self.dims).any() {
             return 0.0;
         }
-        match &self.storage {
+        match &*self.storage {
             Storage::Dense(data) => data[(q.x + self.dims.x * (q.y + self.dims.y * q.z)) as usize],
             Storage::Bricks(b) => b.at(q),
         }
@@ -320,7 +371,7 @@ impl DensityGrid {
         ];
         let lo = i - self.origin;
         let inside = lo.cmpge(IVec3::ZERO).all() && (lo + IVec3::ONE).cmplt(self.dims).all();
-        match &self.storage {
+        match &*self.storage {
             Storage::Dense(data) if inside => {
                 // All eight corners inside the box (most lookups): one index, no per-corner
                 // checks. The same products summed in the same order as below, so the same bits.
@@ -698,7 +749,7 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
     Ok(DensityGrid {
         origin,
         dims,
-        storage,
+        storage: std::sync::Arc::new(storage),
         translation: read.translation,
         voxel_size: read.voxel_size,
         max_density: c.max,
@@ -739,7 +790,7 @@ mod tests {
             Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz-corpus/vdb/tile-overlap.vdb");
         let dense = DensityGrid::load_with(&path, "density", Layout::Dense).unwrap();
         let bricks = DensityGrid::load_with(&path, "density", Layout::Bricks).unwrap();
-        assert!(matches!(bricks.storage, Storage::Bricks(_)));
+        assert!(matches!(*bricks.storage, Storage::Bricks(_)));
         for (i, v) in [(IVec3::ZERO, 2.0), (IVec3::new(1, 0, 0), 1.0), (IVec3::splat(127), 1.0)] {
             assert_eq!((dense.voxel(i), bricks.voxel(i)), (v, v), "voxel {i}");
         }

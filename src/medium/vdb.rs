@@ -625,7 +625,17 @@ impl VdbMedium {
                 smallvec::smallvec![(a, b, 0)];
             while let Some((a, b, depth)) = pieces.pop() {
                 let (lo, hi) = self.density_bounds(oq + dq * a, oq + dq * b);
-                let mu = hi * self.sigma_t * tint;
+                // With an extinction grid, the colour's bounds on the piece too: where it
+                // varies (at the edge of a tint grid) a tight density bound alone leaves the
+                // tracked channel's σ_t far below the rate, and the walk would crawl.
+                let (lo_c, hi_c) = if self.extinction_grid.is_some() {
+                    let (c0, c1) = self.colour_bounds(o + d * a, o + d * b);
+                    (c0, c1.min(tint))
+                } else {
+                    (tint, tint)
+                };
+                let (lo, hi) = (lo * lo_c, hi * hi_c);
+                let mu = hi * self.sigma_t;
                 if mu <= 0.0 {
                     continue;
                 }
@@ -653,32 +663,24 @@ impl VdbMedium {
     }
 
     /// Lower and upper bounds of the (scaled) density on the index-space segment from `q0` to
-    /// `q1`. Within one interpolation cell (between eight voxel centres) the density is
-    /// multilinear, so its extremes over the box spanned by the segment are at the box's corners;
-    /// across cells, every voxel of the cells the box touches bounds it. The upper bound is
-    /// raised by a few ulps for the rounding of trilinear lookups.
+    /// `q1` ([`DensityGrid::bounds`]).
     fn density_bounds(&self, q0: Vec3, q1: Vec3) -> (f32, f32) {
-        let (mn, mx) = (q0.min(q1), q0.max(q1));
-        let (i0, i1) = (mn.floor().as_ivec3(), mx.floor().as_ivec3());
-        let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
-        if i0 == i1 {
-            for k in 0..8 {
-                let pick = |bit: i32, a: f32, b: f32| if k & bit == 0 { a } else { b };
-                let q = Vec3::new(pick(1, mn.x, mx.x), pick(2, mn.y, mx.y), pick(4, mn.z, mx.z));
-                let v = self.grid.density_index(q);
-                (lo, hi) = (lo.min(v), hi.max(v));
-            }
-        } else {
-            for z in i0.z..=i1.z + 1 {
-                for y in i0.y..=i1.y + 1 {
-                    for x in i0.x..=i1.x + 1 {
-                        let v = self.grid.voxel(IVec3::new(x, y, z));
-                        (lo, hi) = (lo.min(v), hi.max(v));
-                    }
-                }
-            }
+        self.grid.bounds(q0, q1)
+    }
+
+    /// Lower and upper bounds of the largest channel of the (normalised) extinction colour on
+    /// the scene segment from `p0` to `p1`: each channel's grid bounded on the segment in its own
+    /// index space; (1, 1) without an extinction grid. The largest channel is at least the
+    /// largest of the channels' lower bounds.
+    fn colour_bounds(&self, p0: Vec3, p1: Vec3) -> (f32, f32) {
+        let Some(field) = &self.extinction_grid else { return (1.0, 1.0) };
+        let (mut lo, mut hi) = (0.0f32, 0.0f32);
+        for c in 0..3 {
+            let to = field.to_index[c];
+            let (l, h) = field.grids[c].bounds(to.transform_point3(p0), to.transform_point3(p1));
+            (lo, hi) = (lo.max(l), hi.max(h));
         }
-        (lo, hi * (1.0 + 1e-5))
+        (lo * field.scale, hi * field.scale)
     }
 
     /// The part [t0, t1] of o + t d, 0 ≤ t ≤ `t_max`, inside the grid's majorant cells (the

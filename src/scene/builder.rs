@@ -57,6 +57,11 @@ pub struct SceneBuilder {
     lights: Vec<(LightKind, Option<u32>)>,
     source: Option<PathBuf>,
     grids: Vec<GridInfo>,
+    /// Grids loaded so far, by file, name and layout: a grid referenced several times (as
+    /// density, temperature and colour channels, or by several media) is read and stored once.
+    loaded: std::collections::HashMap<(PathBuf, String, GridLayout), DensityGrid>,
+    /// The stored voxels listed in `grids` so far ([`DensityGrid::storage_id`]).
+    listed: std::collections::HashSet<usize>,
 }
 
 pub(super) fn invalid(key: String, message: impl Into<String>) -> Error {
@@ -118,6 +123,8 @@ impl SceneBuilder {
             lights: Vec::new(),
             source: None,
             grids: Vec::new(),
+            loaded: Default::default(),
+            listed: Default::default(),
         }
     }
 
@@ -237,7 +244,8 @@ impl SceneBuilder {
                 }
                 check_transform(&transform, &format!("media.{name}"))?;
                 let grid_name = grid;
-                let grid = DensityGrid::load_with(&file, &grid_name, layout)
+                let mut grid = self
+                    .load_grid(&file, &grid_name, layout)
                     .map_err(|e| invalid(key("file"), self.relative_note(&file, e.to_string())))?;
                 let to_scene = transform.matrix();
                 let temperature = match temperature {
@@ -256,9 +264,12 @@ impl SceneBuilder {
                         ),
                     ));
                 }
-                self.grids.push(GridInfo::of(name, &grid_name, &grid));
+                // Scaled here (a copy of its own if the grid is shared and the scale is not 1),
+                // so that the listing counts the copy.
+                grid.scale_values(density_scale);
+                self.list_grid(name, &grid_name, &grid);
                 if let Some(t) = &temperature {
-                    self.grids.push(GridInfo::of(name, &t.name, &t.grid));
+                    self.list_grid(name, &t.name, &t.grid);
                 }
                 let fields = (file.as_path(), layout, to_scene);
                 let colour =
@@ -285,7 +296,7 @@ impl SceneBuilder {
                             )
                         })
                     })?;
-                let medium = VdbMedium::new(grid, to_scene, density_scale, sigma_a, sigma_s, phase);
+                let medium = VdbMedium::new(grid, to_scene, 1.0, sigma_a, sigma_s, phase);
                 let medium = medium
                     .with_emission(emission, temperature)
                     .with_emission_grid(colour)
@@ -318,9 +329,10 @@ impl SceneBuilder {
         }
         let mut grids = Vec::new();
         for n in &names {
-            let g = DensityGrid::load_with(file, n, layout)
+            let g = self
+                .load_grid(file, n, layout)
                 .map_err(|e| invalid(ekey("grids"), self.relative_note(file, e.to_string())))?;
-            self.grids.push(GridInfo::of(name, n, &g));
+            self.list_grid(name, n, &g);
             grids.push(g);
         }
         let grids: [DensityGrid; 3] = grids.try_into().expect("three grids");
@@ -331,9 +343,28 @@ impl SceneBuilder {
         }
     }
 
+    /// Lists grid `grid` of medium `medium` for [`Scene::grids`].
+    fn list_grid(&mut self, medium: &str, grid: &str, g: &DensityGrid) {
+        let shared = !self.listed.insert(g.storage_id());
+        self.grids.push(GridInfo::of(medium, grid, g, shared));
+    }
+
+    /// Grid `name` of `file` in `layout`, read once per scene: later references share the first
+    /// one's stored voxels.
+    fn load_grid(&mut self, file: &Path, name: &str, layout: GridLayout) -> Result<DensityGrid> {
+        let path = std::fs::canonicalize(file).unwrap_or_else(|_| file.to_path_buf());
+        let key = (path, name.to_string(), layout);
+        if let Some(g) = self.loaded.get(&key) {
+            return Ok(g.clone());
+        }
+        let g = DensityGrid::load_with(file, name, layout)?;
+        self.loaded.insert(key, g.clone());
+        Ok(g)
+    }
+
     /// The temperature field of grid medium `name` (file `file`), checked.
     fn temperature_field(
-        &self,
+        &mut self,
         name: &str,
         file: &std::path::Path,
         t: &TemperatureDesc,
@@ -350,7 +381,8 @@ impl SceneBuilder {
             let message = format!("must be finite and non-negative, got {}", t.blackbody_scale);
             return Err(invalid(key("blackbody_scale"), message));
         }
-        let grid = DensityGrid::load_with(file, &t.grid, layout)
+        let grid = self
+            .load_grid(file, &t.grid, layout)
             .map_err(|e| invalid(key("grid"), self.relative_note(file, e.to_string())))?;
         let mut field =
             TemperatureField::new(grid, to_scene, t.scale, t.offset, t.cutoff, t.blackbody_scale);

@@ -91,10 +91,18 @@ pub struct GridInfo {
     pub active_voxels: u64,
     /// Bytes of the stored values (the dense array, or the brick table, constants and bricks).
     pub bytes: usize,
+    /// The same stored values as a grid listed before it (the same grid of the same file
+    /// referenced again): no more memory.
+    pub shared: bool,
 }
 
 impl GridInfo {
-    pub(crate) fn of(medium: &str, grid: &str, g: &crate::medium::grid::DensityGrid) -> Self {
+    pub(crate) fn of(
+        medium: &str,
+        grid: &str,
+        g: &crate::medium::grid::DensityGrid,
+        shared: bool,
+    ) -> Self {
         Self {
             medium: medium.to_string(),
             grid: grid.to_string(),
@@ -102,6 +110,7 @@ impl GridInfo {
             dims: g.dims.to_array(),
             active_voxels: g.active_voxels,
             bytes: g.stored_bytes(),
+            shared,
         }
     }
 }
@@ -121,7 +130,11 @@ impl std::fmt::Display for GridInfo {
             self.grid,
             self.active_voxels,
             self.bytes as f64 / 1e6
-        )
+        )?;
+        if self.shared {
+            write!(f, " (stored once with the same grid above)")?;
+        }
+        Ok(())
     }
 }
 

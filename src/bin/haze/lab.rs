@@ -96,6 +96,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
     check_output_dir("--output", &prefix)?;
     let pool = thread_pool(args.overrides.threads)?;
     let interrupt = Interrupt::install()?;
+    interrupt.arm();
     let stop = interrupt.flag();
     let plan = Plan {
         seconds: time,

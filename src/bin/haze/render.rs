@@ -50,6 +50,9 @@ pub(crate) struct RenderArgs {
 /// Renders; the exit code is 0, or 128 + the signal's number if SIGINT (130) or SIGTERM (143)
 /// stopped the render (what was finished is written first).
 pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
+    // Listening from the start: a signal while the scene loads exits at once (a large grid can
+    // take seconds to load), one during the render stops it cleanly.
+    let interrupt = Interrupt::install()?;
     // A resume continues what its partial records — image size, settings and output files —
     // unless the command line says otherwise.
     let resumed = args.resume.as_deref().map(Partial::read).transpose()?;
@@ -134,7 +137,6 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         );
     }
     let pool = thread_pool(args.overrides.threads)?;
-    let interrupt = Interrupt::install()?;
     let stop = interrupt.flag();
     if !args.quiet {
         // How each grid is stored (dense or bricks), so that memory is never a surprise.
@@ -179,6 +181,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
             }
         }
     };
+    interrupt.arm();
     let mut part =
         pool.install(|| haze::render_partial(&scene, &settings, start, &mut on_iteration, stop))?;
     part.output = recorded.clone();

@@ -15,6 +15,9 @@ pub(crate) struct Interrupt {
     stop: Arc<AtomicBool>,
     signal: Arc<AtomicI32>,
     writing: Arc<AtomicBool>,
+    /// Set once there is work to save: before that (while a scene and its grids load) a signal
+    /// exits at once, since nothing would be lost.
+    armed: Arc<AtomicBool>,
 }
 
 impl Interrupt {
@@ -24,12 +27,18 @@ impl Interrupt {
             stop: Arc::new(AtomicBool::new(false)),
             signal: Arc::new(AtomicI32::new(0)),
             writing: Arc::new(AtomicBool::new(false)),
+            armed: Arc::new(AtomicBool::new(false)),
         };
         let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])
             .context("cannot install the SIGINT and SIGTERM handlers")?;
         let handler = me.clone();
         std::thread::spawn(move || {
             for sig in signals.forever() {
+                if !handler.armed.load(Ordering::SeqCst) {
+                    let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
+                    eprintln!("error: {name} while loading; nothing written");
+                    std::process::exit(128 + sig);
+                }
                 match handler.signal.compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst) {
                     Ok(_) => handler.stop.store(true, Ordering::SeqCst),
                     Err(first) => {
@@ -41,6 +50,11 @@ impl Interrupt {
             }
         });
         Ok(me)
+    }
+
+    /// From now on a signal stops the work cleanly instead of exiting at once.
+    pub(crate) fn arm(&self) {
+        self.armed.store(true, Ordering::SeqCst);
     }
 
     /// The flag to hand to the library (raised by the first signal).
