@@ -319,16 +319,40 @@ impl Partial {
             .to_string();
         let n = u64_of(take(8, "state")?);
         let state = take(n, "state")?.to_vec();
-        let t: toml::Table = header.parse().map_err(|e| err(format!("header: {e}")))?;
+        // toml's own Display is a multi-line diagnostic: one line, with the header's line.
+        let t: toml::Table = header.parse().map_err(|e: toml::de::Error| {
+            let line = e.span().map(|s| header[..s.start.min(header.len())].lines().count().max(1));
+            let at = line.map(|l| format!(" line {l}:")).unwrap_or_default();
+            err(format!("header:{at} {} (corrupt file)", e.message().trim().replace('\n', " ")))
+        })?;
         let int = |k: &str| -> Result<u64> {
             t.get(k)
                 .and_then(|v| v.as_integer())
                 .filter(|&v| v >= 0)
                 .map(|v| v as u64)
-                .ok_or_else(|| err(format!("header: `{k}` missing or invalid")))
+                .ok_or_else(|| match t.get(k) {
+                    None => err(format!("header: `{k}` missing")),
+                    Some(v) => err(format!(
+                        "header: `{k}` is {}; it must be a whole number, at least 0",
+                        crate::error::quote(&v.to_string())
+                    )),
+                })
         };
+        // A number that must be finite and non-negative (radii, seconds): an integer is taken.
         let float = |k: &str| -> Result<f64> {
-            t.get(k).and_then(|v| v.as_float()).ok_or_else(|| err(format!("header: `{k}` missing")))
+            let v = match t.get(k) {
+                None => return Err(err(format!("header: `{k}` missing"))),
+                Some(toml::Value::Float(f)) => *f,
+                Some(toml::Value::Integer(i)) => *i as f64,
+                Some(other) => {
+                    let kind = other.type_str();
+                    return Err(err(format!("header: `{k}` is a {kind}, not a number")));
+                }
+            };
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(err(format!("header: `{k}` is {v}; it must be finite and non-negative")));
+            }
+            Ok(v)
         };
         let (width, height) = (int("width")?, int("height")?);
         let pixels = width.checked_mul(height).filter(|&p| p > 0 && p <= crate::scene::MAX_PIXELS);

@@ -406,8 +406,9 @@ render_settings! {
     /// Stop once the image's estimated relative error reaches this (a fraction; on the command
     /// line also a percentage such as 2%): the upper confidence limit, at `target_confidence`,
     /// of the image's estimated relative RMSE from its noise and, for photon mapping, its
-    /// estimated kernel bias (docs/error.md). With an iteration count or a time limit, the
-    /// render stops at whichever comes first.
+    /// estimated kernel bias (docs/error.md). It stops a render early and never extends it:
+    /// the iteration count (the scene's, or -n) and a time limit still end the render when the
+    /// target is out of reach; to render past the scene's count, give -n or -t as the bound.
     [long, value_name = "E", value_parser = parse_fraction_or_percent]
     target_error: f64, optional = None, open_unit;
 
@@ -575,17 +576,16 @@ impl RenderSettings {
     /// Two pairs of keys interact, so that a later layer (the command line over the scene file)
     /// means what it says:
     ///
-    /// - a time limit or a target error without an iteration count removes the iteration count
-    ///   (render until the time is up or the error reached);
+    /// - a time limit without an iteration count removes the iteration count (render until the
+    ///   time is up). A target error does not: it only stops a render early, so an unreachable
+    ///   target still ends at the count;
     /// - a radius fraction without an absolute radius removes the absolute radius (likewise for
     ///   the volume radius).
     ///
     /// The result is not validated: call [`Self::validate`].
     pub fn apply(&mut self, options: &RenderOptions) {
         self.apply_each(options);
-        if (options.time_limit.is_some() || options.target_error.is_some())
-            && options.iterations.is_none()
-        {
+        if options.time_limit.is_some() && options.iterations.is_none() {
             self.iterations = None;
         }
         if options.radius_fraction.is_some() && options.radius.is_none() {
@@ -606,12 +606,14 @@ impl RenderSettings {
     /// Checks every setting and the combinations; the error names the offending key.
     pub fn validate(&self) -> Result<(), SettingError> {
         self.check_each()?;
-        if self.iterations.is_none() && self.time_limit.is_none() && self.target_error.is_none() {
-            return Err(SettingError {
-                key: "iterations",
-                message: "give an iteration count, a time limit or a target error (or several)"
-                    .into(),
-            });
+        if self.iterations.is_none() && self.time_limit.is_none() {
+            let message = if self.target_error.is_some() {
+                "a target error needs an iteration count or a time limit beside it, to end a \
+                 render whose target is out of reach"
+            } else {
+                "give an iteration count or a time limit (or both, and a target error)"
+            };
+            return Err(SettingError { key: "iterations", message: message.into() });
         }
         if self.target_error.is_some() && self.progression == Progression::Original {
             return Err(SettingError {

@@ -34,7 +34,7 @@
 //! census (a set of brick indices) and a node's worth of buffers.
 
 use super::vdbscan::{Input, check_header};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, quote};
 use glam::{IVec3, Vec3};
 use std::io::{Read, Seek};
 use std::path::Path;
@@ -450,7 +450,9 @@ fn read_header<'a, R: Read + Seek>(
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb_rs::VdbReader::new(reader)));
     let vdb = match opened {
         Ok(Ok(v)) => v,
-        Ok(Err(e)) => return Err(err(format!("cannot read the file header: {e}"))),
+        Ok(Err(e)) => {
+            return Err(err(format!("cannot read the file header: {}", quote(&e.to_string()))));
+        }
         Err(_) => return Err(err("cannot read the file header (corrupt or unsupported)".into())),
     };
     // `NAME[k]`: component k of vector grid NAME, unless a grid has that very name. A grid
@@ -465,7 +467,7 @@ fn read_header<'a, R: Read + Seek>(
         return Err(err(format!(
             "grid `{name}` has an `{}` transform; haze reads uniform-scale and scale-translate \
              maps only (resample the grid, or place it with the medium's `transform`)",
-            t.map
+            quote(&t.map)
         )));
     };
     let translation = Vec3::from(translation.map(|x| x as f32));
@@ -521,7 +523,13 @@ fn check_grid<R: Read + Seek>(
     let Some(gd) = vdb.grid_descriptors.get(name).cloned() else {
         let mut names = vdb.available_grids();
         names.sort();
-        return Err(err(format!("no grid named `{name}` (the file has {names:?})")));
+        let names = names.iter().take(20).map(|n| format!("`{}`", quote(n))).collect::<Vec<_>>();
+        let more = if vdb.grid_descriptors.len() > 20 { ", …" } else { "" };
+        return Err(err(format!(
+            "no grid named `{}` (the file has {}{more})",
+            quote(name),
+            names.join(", ")
+        )));
     };
     let ty = gd.grid_type.strip_suffix("_HalfFloat").unwrap_or(&gd.grid_type);
     match (ty, component) {
@@ -530,20 +538,20 @@ fn check_grid<R: Read + Seek>(
             return Err(err(format!(
                 "grid `{name}` is a vector grid ({}); name one of its components as \
                  `{name}[0]`, `{name}[1]` or `{name}[2]`, or give a float grid",
-                gd.grid_type
+                quote(&gd.grid_type)
             )));
         }
         (_, None) => {
             return Err(err(format!(
                 "grid `{name}` is of type {}, not a float grid (Tree_float_5_4_3)",
-                gd.grid_type
+                quote(&gd.grid_type)
             )));
         }
         (_, Some(_)) => {
             return Err(err(format!(
                 "grid `{name}` is of type {}, not a vector grid (Tree_vec3s_5_4_3) with \
                  components",
-                gd.grid_type
+                quote(&gd.grid_type)
             )));
         }
     }

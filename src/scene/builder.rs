@@ -12,7 +12,7 @@ use super::material::Material;
 use super::shape::{self, Mesh};
 use super::{GridInfo, MAX_COORDINATE, MediumInterface, Scene, Shape};
 use crate::accel::{Accel, Primitive};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, quote};
 use crate::math::Rgb;
 use crate::medium::Medium;
 use crate::medium::grid::DensityGrid;
@@ -62,6 +62,16 @@ pub struct SceneBuilder {
     loaded: std::collections::HashMap<(PathBuf, String, GridLayout), DensityGrid>,
     /// The stored voxels listed in `grids` so far ([`DensityGrid::storage_id`]).
     listed: std::collections::HashSet<usize>,
+}
+
+/// "defined: `a`, `b`" (at most 20 names, each quoted), or "none defined".
+fn defined<'a>(names: impl ExactSizeIterator<Item = &'a str>) -> String {
+    let n = names.len();
+    if n == 0 {
+        return "none defined".into();
+    }
+    let list: Vec<String> = names.take(20).map(|k| format!("`{}`", quote(k))).collect();
+    format!("defined: {}{}", list.join(", "), if n > 20 { ", …" } else { "" })
 }
 
 pub(super) fn invalid(key: String, message: impl Into<String>) -> Error {
@@ -397,8 +407,8 @@ impl SceneBuilder {
             MediumRef::Name(n) => match self.media.iter().position(|(name, _)| name == n) {
                 Some(i) => Ok(MediumId(i as u32)),
                 None => {
-                    let known: Vec<&String> = self.media.iter().map(|(n, _)| n).collect();
-                    Err(invalid(key, format!("undefined medium `{n}` (defined: {known:?})")))
+                    let known = defined(self.media.iter().map(|(n, _)| n.as_str()));
+                    Err(invalid(key, format!("undefined medium `{}` ({known})", quote(n))))
                 }
             },
         }
@@ -411,8 +421,8 @@ impl SceneBuilder {
             MaterialRef::Name(n) => match self.materials.iter().position(|(name, _)| name == n) {
                 Some(i) => Ok(MaterialId(i as u32)),
                 None => {
-                    let known: Vec<&String> = self.materials.iter().map(|(n, _)| n).collect();
-                    Err(invalid(key, format!("undefined material `{n}` (defined: {known:?})")))
+                    let known = defined(self.materials.iter().map(|(n, _)| n.as_str()));
+                    Err(invalid(key, format!("undefined material `{}` ({known})", quote(n))))
                 }
             },
         }

@@ -129,11 +129,44 @@ pub struct EmissionGridDef {
 }
 
 /// Three float grids (R, G, B), or one 3-vector grid whose components are the channels.
-#[derive(Debug, Deserialize, Clone)]
-#[serde(untagged)]
+#[derive(Debug, Clone)]
 pub enum GridNames {
     Channels([String; 3]),
     Vector(String),
+}
+
+/// Reads [`GridNames`] with a message in the scene format's words.
+struct GridNamesVisitor;
+
+impl<'de> serde::de::Visitor<'de> for GridNamesVisitor {
+    type Value = GridNames;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a vector grid's name, or three float grids' names [\"r\", \"g\", \"b\"]")
+    }
+
+    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Self::Value, E> {
+        Ok(GridNames::Vector(v.to_string()))
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let mut out: [String; 3] = Default::default();
+        for (i, c) in out.iter_mut().enumerate() {
+            *c = seq
+                .next_element::<String>()?
+                .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+        }
+        if seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+            return Err(serde::de::Error::invalid_length(4, &self));
+        }
+        Ok(GridNames::Channels(out))
+    }
+}
+
+impl<'de> Deserialize<'de> for GridNames {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(GridNamesVisitor)
+    }
 }
 
 impl GridNames {
@@ -384,10 +417,40 @@ pub(crate) fn plain(message: &str) -> String {
             "wanted string or table",
             "expected one of its names in quotes (docs/scene-format.md lists them)",
         ),
+        ("unknown variant", "unknown value"),
+        ("expected struct TransformDef", "expected a table such as { scale = 2, translate = [0, 1, 0] }"),
+        ("expected struct TemperatureDef", "expected a table such as { grid = \"temperature\" }"),
+        ("expected struct EmissionGridDef", "expected a table such as { grids = \"Cd\", scale = 1 }"),
     ] {
         m = m.replace(rust, words);
     }
-    cut_quoted(&m)
+    // Whatever other Rust type names serde puts in a message: a struct is a table of the scene
+    // format, an enum one of its names (as a string).
+    m = rust_words(&m, "expected struct ", "expected a table");
+    m = rust_words(&m, "expected enum ", "expected one of its names in quotes");
+    m = rust_words(&m, "expected tuple struct ", "expected a value of another kind");
+    m = rust_words(&m, "expected unit struct ", "expected a value of another kind");
+    // A table given an array: serde says how many elements the struct has.
+    for n in 1..=16 {
+        m = m.replace(&format!("}} with {n} elements"), "}");
+        m = m.replace(&format!("a table with {n} elements"), "a table");
+    }
+    cut_quoted(&crate::error::printable(&m))
+}
+
+/// `m` with every `pattern` followed by a Rust type name replaced by `words`.
+fn rust_words(m: &str, pattern: &str, words: &str) -> String {
+    let mut out = String::with_capacity(m.len());
+    let mut rest = m;
+    while let Some(i) = rest.find(pattern) {
+        out.push_str(&rest[..i]);
+        out.push_str(words);
+        rest = &rest[i + pattern.len()..];
+        let end = rest.find(|c: char| !(c.is_alphanumeric() || c == '_')).unwrap_or(rest.len());
+        rest = &rest[end..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// Cuts every "…"-quoted part longer than [`MAX_QUOTED`] characters.

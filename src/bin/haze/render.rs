@@ -290,7 +290,7 @@ fn progress_bar(settings: &RenderSettings) -> ProgressBar {
         (None, Some(t)) => {
             ((t * 1000.0) as u64, "{elapsed_precise} [{bar:30}] time budget, ETA {eta} {msg}")
         }
-        // A target error alone: no length known in advance.
+        // Neither (refused by the settings' validation): no length known in advance.
         (None, None) => (1, "{elapsed_precise} {spinner} {msg}"),
     };
     let bar = ProgressBar::new(len);
