@@ -95,9 +95,8 @@ impl std::error::Error for Error {}
 /// (`\u{1b}`, `\n`, `\0`): the C0 and C1 controls, DEL, and the bidirectional overrides and
 /// isolates. Everything else, `σ` and `³` included, is kept.
 pub fn printable(s: &str) -> std::borrow::Cow<'_, str> {
-    let unsafe_char = |c: char| {
-        c.is_control() || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
-    };
+    let unsafe_char =
+        |c: char| c.is_control() || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}');
     if !s.chars().any(unsafe_char) {
         return std::borrow::Cow::Borrowed(s);
     }

@@ -96,6 +96,19 @@ pub mod fuzzing {
         crate::Scene::from_toml(text, Path::new("fuzz.toml"), Path::new("/nonexistent")).map(|_| ())
     }
 
+    /// The scene parser and builder on scene text whose files resolve against the repository's
+    /// `media/` directory, so that grid keys (`extinction_grid`, `albedo_grid`,
+    /// `emission_grid`, `temperature`) reach the grids they name.
+    pub fn scene_with_media(text: &str) -> crate::Result<()> {
+        let media = Path::new(env!("CARGO_MANIFEST_DIR")).join("media");
+        crate::Scene::from_toml(text, &media.join("fuzz.toml"), &media).map(|_| ())
+    }
+
+    /// The partial-render reader (header, sums, checksum) on a file's bytes.
+    pub fn partial(bytes: &[u8]) -> crate::Result<()> {
+        crate::Partial::from_bytes(bytes, Path::new("fuzz.hpr")).map(|_| ())
+    }
+
     /// The OBJ loader on a file's bytes.
     pub fn obj(bytes: &[u8]) -> crate::Result<()> {
         crate::scene::shape::obj_from_bytes(bytes, Path::new("fuzz.obj")).map(|_| ())

@@ -283,13 +283,21 @@ impl Partial {
 
     /// Reads a partial-render file, checking its structure and checksum.
     pub fn read(path: &Path) -> Result<Partial> {
-        let err = |m: String| part_err(path, m);
         // Past the largest partial render (18.8 GB), or past the most one of the image size its
         // header states can hold, a file is refused before it is read.
         let largest = most_bytes(crate::scene::MAX_PIXELS, MAX_HEADER);
         crate::scene::check_file(path, largest, "a partial render")?;
         let what = "a partial render of the size its header states";
         let bytes = crate::scene::read_bounded(path, size_bound(path)?, what)?;
+        Self::from_bytes(&bytes, path)
+    }
+
+    /// A partial render from a file's bytes (`path` names it in errors), checked as [`read`]
+    /// checks a file.
+    ///
+    /// [`read`]: Self::read
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Partial> {
+        let err = |m: String| part_err(path, m);
         let mut at = 0usize;
         let mut take = |n: u64, what: &str| -> Result<&[u8]> {
             let end = (at as u64).checked_add(n).filter(|&e| e <= bytes.len() as u64);
@@ -326,17 +334,15 @@ impl Partial {
             err(format!("header:{at} {} (corrupt file)", e.message().trim().replace('\n', " ")))
         })?;
         let int = |k: &str| -> Result<u64> {
-            t.get(k)
-                .and_then(|v| v.as_integer())
-                .filter(|&v| v >= 0)
-                .map(|v| v as u64)
-                .ok_or_else(|| match t.get(k) {
+            t.get(k).and_then(|v| v.as_integer()).filter(|&v| v >= 0).map(|v| v as u64).ok_or_else(
+                || match t.get(k) {
                     None => err(format!("header: `{k}` missing")),
                     Some(v) => err(format!(
                         "header: `{k}` is {}; it must be a whole number, at least 0",
                         crate::error::quote(&v.to_string())
                     )),
-                })
+                },
+            )
         };
         // A number that must be finite and non-negative (radii, seconds): an integer is taken.
         let float = |k: &str| -> Result<f64> {
@@ -350,7 +356,9 @@ impl Partial {
                 }
             };
             if !(v.is_finite() && v >= 0.0) {
-                return Err(err(format!("header: `{k}` is {v}; it must be finite and non-negative")));
+                return Err(err(format!(
+                    "header: `{k}` is {v}; it must be finite and non-negative"
+                )));
             }
             Ok(v)
         };

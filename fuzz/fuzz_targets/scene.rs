@@ -6,7 +6,9 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     // checks for it after the call) and is reported as a crash.
     static QUIET: std::sync::Once = std::sync::Once::new();
     QUIET.call_once(|| std::panic::set_hook(Box::new(|_| {})));
+    // Files resolve against the repository's media/ (the bundled scenes' "../media/…" too), so
+    // that every grid key reaches a real grid (tests/fuzz-corpus/scene/grid-keys.toml).
     if let Ok(text) = std::str::from_utf8(data) {
-        let _ = haze::fuzzing::scene(text);
+        let _ = haze::fuzzing::scene_with_media(text);
     }
 });

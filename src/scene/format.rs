@@ -418,9 +418,15 @@ pub(crate) fn plain(message: &str) -> String {
             "expected one of its names in quotes (docs/scene-format.md lists them)",
         ),
         ("unknown variant", "unknown value"),
-        ("expected struct TransformDef", "expected a table such as { scale = 2, translate = [0, 1, 0] }"),
+        (
+            "expected struct TransformDef",
+            "expected a table such as { scale = 2, translate = [0, 1, 0] }",
+        ),
         ("expected struct TemperatureDef", "expected a table such as { grid = \"temperature\" }"),
-        ("expected struct EmissionGridDef", "expected a table such as { grids = \"Cd\", scale = 1 }"),
+        (
+            "expected struct EmissionGridDef",
+            "expected a table such as { grids = \"Cd\", scale = 1 }",
+        ),
     ] {
         m = m.replace(rust, words);
     }

@@ -78,7 +78,7 @@ fn materials_and_media_go_by_name_or_id() {
     let err = b.shape(ShapeDesc::sphere(Vec3::ZERO, 1.0).material("gold")).unwrap_err();
     assert_eq!(
         err.to_string(),
-        "shapes[2].material: undefined material `gold` (defined: [\"grey\", \"air\"])"
+        "shapes[2].material: undefined material `gold` (defined: `grey`, `air`)"
     );
     let err = b.shape(ShapeDesc::sphere(Vec3::ZERO, 1.0)).unwrap_err().to_string();
     assert!(err.starts_with("shapes[2].material: "), "{err}");

@@ -418,3 +418,58 @@ fn messages_use_the_users_words() {
     );
     expect_error(&format!("{CAMERA}{obj}"), &["shapes[0].file", ":13", "no-such-mesh.obj"]);
 }
+
+/// Issue 37's messages: serde's words for grid keys, transforms and temperatures ("untagged enum
+/// GridNames", "expected struct TransformDef", "with 3 elements") in the scene format's words; a
+/// multi-line string echoed on one line; a 100 kB undefined material's name cut; control
+/// characters from the scene escaped.
+#[test]
+fn grid_keys_transforms_and_names_are_told_in_the_formats_words() {
+    let media = concat!(env!("CARGO_MANIFEST_DIR"), "/media");
+    let vdb = |extra: &str| {
+        format!(
+            "{CAMERA}{BODY}\n[media.cloud]\ntype = \"vdb\"\nfile = \"{media}/tinted.vdb\"\nsigma_t = 1\nalbedo = 0.5\n{extra}\n"
+        )
+    };
+    load(&vdb("extinction_grid = { grids = \"tint\" }")).unwrap();
+    let cases: [(&str, &[&str]); 7] = [
+        (
+            "extinction_grid = { grids = [\"a\", \"b\"] }",
+            &["media.cloud.extinction_grid", "2 values", "a vector grid's name, or three"],
+        ),
+        ("transform = \"\"", &["media.cloud.transform", "expected a table such as { scale"]),
+        ("transform = [1]", &["media.cloud.transform", "1 values", "expected a table"]),
+        ("temperature = 1", &["media.cloud.temperature", "`1`", "expected a table such as"]),
+        ("emission_grid = 3", &["media.cloud.emission_grid", "expected a table such as"]),
+        ("layout = \"sparse\"", &["media.cloud.layout", "unknown value `sparse`", "`dense`"]),
+        ("layout = 1", &["media.cloud.layout", "expected one of its names in quotes"]),
+    ];
+    for (extra, needles) in cases {
+        let msg = expect_error(&vdb(extra), needles);
+        for rust in ["struct ", "enum ", "variant", "Def", "GridNames", "elements"] {
+            assert!(!msg.contains(rust), "{extra}: `{msg}` says `{rust}`");
+        }
+    }
+    // A multi-line string as a type: one line, the line break shown as \n.
+    let msg = expect_error(
+        &CAMERA.replace("type = \"perspective\"", "type = \"\"\"per\nspective\"\"\""),
+        &["camera.type", "per\\nspective"],
+    );
+    assert_eq!(msg.lines().count(), 1, "{msg}");
+    // An undefined material of 100,000 characters: cut, and the defined ones listed.
+    let long = "m".repeat(100_000);
+    let msg = expect_error(
+        &format!(
+            "{CAMERA}{}",
+            BODY.replace("material = \"white\"", &format!("material = \"{long}\""))
+        ),
+        &["shapes[0].material", "undefined material", "(100000 characters)", "`white`"],
+    );
+    assert!(msg.len() < 300, "the name was echoed whole ({} bytes)", msg.len());
+    // An escape sequence written in the scene (TOML's \u001b) is shown escaped.
+    let msg = expect_error(
+        &format!("{CAMERA}{}", BODY.replace("material = \"white\"", "material = \"a\\u001b[2Jb\"")),
+        &["undefined material `a\\u{1b}[2Jb`"],
+    );
+    assert!(!msg.contains('\u{1b}'), "{msg:?}");
+}

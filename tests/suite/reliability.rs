@@ -305,3 +305,207 @@ power = 10
     assert!(status.success(), "{err}");
     assert!(!err.contains("step cap"), "{err}");
 }
+
+/// Crafted inputs of the hostile-input tests (tests/fuzz-corpus/cli/make.py).
+fn crafted(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz-corpus/cli").join(name)
+}
+
+fn media(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("media").join(name)
+}
+
+/// A 32×32 scene of 2,000 light paths whose unit box at [0, 1]³ holds grid medium `medium` (the
+/// body of a `[media.m]` table, without its `file`), with the grid of `file`.
+fn box_scene(dir: &Path, name: &str, file: &Path, medium: &str) -> PathBuf {
+    let scene = dir.join(format!("{name}.toml"));
+    let text = format!(
+        r#"[camera]
+type = "perspective"
+position = [0.5, 0.5, 3]
+look_at = [0.5, 0.5, 0.5]
+fov = 40
+resolution = [32, 32]
+
+[render]
+photons = 2000
+iterations = 1
+
+[materials.air]
+type = "interface"
+
+[media.m]
+type = "vdb"
+file = "{}"
+{medium}
+
+[[shapes]]
+type = "box"
+size = [1, 1, 1]
+transform = {{ translate = [0.5, 0.5, 0.5] }}
+material = "air"
+interior = "m"
+
+[[lights]]
+type = "point"
+position = [0.5, 2, 2]
+power = 10
+"#,
+        file.display()
+    );
+    std::fs::write(&scene, text).unwrap();
+    scene
+}
+
+/// Extinction grids at absurd scales (issue 37): media/tinted.vdb's colour (0.4, 1, 2) on a
+/// constant density, scaled to 10³⁰ or 10¹⁰ through every key that reaches the extinction, in
+/// both layouts. Before the colour's bounds joined the density's in the tracking's bisection, one
+/// iteration of the first never ended (the colour falls to zero at the grid's edge, where only
+/// the density's bound was tightened, so every walk crawled to the step cap); each must now
+/// render its iteration, with no tracking cut at the cap.
+#[test]
+fn extinction_grids_at_absurd_scales_render_their_iteration() {
+    let dir = temp_dir("absurd-extinction");
+    let tinted = media("tinted.vdb");
+    let cases = [
+        "sigma_t = 1\nalbedo = 0.5\nextinction_grid = { grids = \"tint\", scale = 1e30 }",
+        "sigma_t = 1\nalbedo = 0.5\nextinction_grid = { grids = \"tint\", scale = 1e10 }",
+        "sigma_t = 1\nalbedo = 0.5\ndensity_scale = 1e30\nextinction_grid = { grids = \"tint\" }",
+        "sigma_t = 1e30\nalbedo = 0.5\nextinction_grid = { grids = \"tint\" }",
+        "sigma_t = 1\nalbedo = 0.5\nextinction_grid = { grids = \"tint\", scale = 1e30 }\n\
+         layout = \"bricks\"",
+    ];
+    for (k, medium) in cases.iter().enumerate() {
+        let scene = box_scene(&dir, &format!("case{k}"), &tinted, medium);
+        let mut child = haze()
+            .args(["render", scene.to_str().unwrap(), "-o"])
+            .arg(dir.join(format!("case{k}.exr")))
+            .args(["-q", "-j", "2"])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let (status, err) = wait(&mut child, Duration::from_secs(60), medium);
+        assert!(status.success(), "{medium}: {err}");
+        assert!(!err.contains("step cap"), "{medium}: {err}");
+    }
+}
+
+/// A 9 KB file holding one constant 2048³ region as OpenVDB tiles (issue 37): the majorants of a
+/// cell whose bricks are all constant are their values, with no voxel looked up (before, 16.7
+/// million cells × 729 lookups: 59 s on 2 cores), so its render of one iteration ends well
+/// within the bound; and a signal while it loads exits at once with 130, writing nothing (before,
+/// SIGINT's default action killed the process, or it was ignored where a shell had set it so).
+#[test]
+fn a_constant_region_of_tiles_loads_without_visiting_its_voxels_and_signals_act_while_loading() {
+    let dir = temp_dir("tiles-2048");
+    let scene = box_scene(&dir, "tiles", &crafted("tiles-2048.vdb"), "sigma_t = 1\nalbedo = 0.5");
+    let mut child = haze()
+        .args(["render", scene.to_str().unwrap(), "-o"])
+        .arg(dir.join("a.exr"))
+        .args(["-q", "-j", "2"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (status, err) = wait(&mut child, Duration::from_secs(20), "2048³ tiles, one iteration");
+    assert!(status.success(), "{err}");
+    // A signal during the load (which still takes about a second for the brick table).
+    let mut child = haze()
+        .args(["render", scene.to_str().unwrap(), "-o"])
+        .arg(dir.join("b.exr"))
+        .args(["-q", "-j", "2", "-n", "1000000"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(150));
+    kill(&child, "-INT");
+    let (status, err) = wait(&mut child, Duration::from_secs(5), "SIGINT while loading");
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(!dir.join("b.exr").exists(), "an image was written: {err}");
+}
+
+/// No byte from a VDB file reaches the terminal raw (issue 37): a grid name and a map name holding
+/// `ESC [2J` (which clears a terminal) come back escaped, as `\u{1b}`.
+#[test]
+fn names_from_a_file_are_escaped_in_messages() {
+    let dir = temp_dir("escapes");
+    for (file, shown) in
+        [("esc-name.vdb", "den\\u{1b}[2Jsity"), ("esc-map.vdb", "\\u{1b}[2J\\u{1b}[HUniform\\u{7}")]
+    {
+        let scene = box_scene(&dir, file, &crafted(file), "sigma_t = 1\nalbedo = 0.5");
+        let out = haze()
+            .args(["render", scene.to_str().unwrap(), "-o"])
+            .arg(dir.join("x.exr"))
+            .arg("-q")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(!out.stderr.iter().any(|&b| b < 0x20 && b != b'\n'), "raw control bytes: {err:?}");
+        assert!(err.contains(shown), "{file}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+}
+
+/// `--target-error` on the command line keeps the scene's iteration count as the bound (issue 37:
+/// it dropped it, and an unreachable target rendered until killed — 20,000 iterations in 30 s),
+/// as the same target in the scene file does; settings with a target but neither a count nor a
+/// time limit are refused by name.
+#[test]
+fn an_unreachable_target_error_stops_at_the_iteration_count() {
+    let dir = temp_dir("target-bound");
+    let scene = scene_path("cornell-box.toml");
+    let out = dir.join("a.exr");
+    let mut child = haze()
+        .args(["render", scene.to_str().unwrap(), "-o"])
+        .arg(&out)
+        .args(["--resolution", "8x8", "-p", "50", "--target-error", "1e-9", "-n", "20"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (status, err) = wait(&mut child, Duration::from_secs(60), "-n 20 --target-error 1e-9");
+    assert!(status.success(), "{err}");
+    assert!(err.contains("20 iterations"), "{err}");
+    // The scene's own count (here 20, written into a copy of the scene) bounds the CLI's target.
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let text = text.replace("[render]", "[render]\niterations = 20");
+    let text = regex_free_drop_key(&text, "iterations", 1);
+    let copy = dir.join("cb.toml");
+    std::fs::write(&copy, &text).unwrap();
+    let mut child = haze()
+        .args(["render", copy.to_str().unwrap(), "-o"])
+        .arg(dir.join("b.exr"))
+        .args(["--resolution", "8x8", "-p", "50", "--target-error", "1e-9"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (status, err) = wait(&mut child, Duration::from_secs(60), "--target-error 1e-9");
+    assert!(status.success(), "{err}");
+    assert!(err.contains("20 iterations"), "{err}");
+    // A target with no count and no time limit (only the library can ask for it: a scene file
+    // without `iterations` has the default count): refused, naming the key.
+    let alone = haze::RenderSettings {
+        iterations: None,
+        time_limit: None,
+        target_error: Some(0.5),
+        ..Default::default()
+    };
+    let err = alone.validate().unwrap_err();
+    assert_eq!(err.key, "iterations");
+    assert!(err.message.contains("target error needs"), "{}", err.message);
+}
+
+/// `text` without every line setting `key` but the first `keep` of them.
+fn regex_free_drop_key(text: &str, key: &str, keep: usize) -> String {
+    let mut seen = 0;
+    text.lines()
+        .filter(|l| {
+            let is_key = l.split('=').next().is_some_and(|k| k.trim() == key);
+            if is_key {
+                seen += 1;
+                return seen <= keep;
+            }
+            true
+        })
+        .map(|l| format!("{l}\n"))
+        .collect()
+}

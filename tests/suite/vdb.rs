@@ -238,3 +238,47 @@ fn a_vector_grid_is_a_colour_grid() {
         "{msg}"
     );
 }
+
+/// A grid referenced several times — as the density, the temperature and the three channels of
+/// the emission, by two media — is read and stored once (issue 37: a 512³ dense grid referenced
+/// five times took five copies, 3.5 GB): every listing of it after the first says it is shared,
+/// and a `density_scale` other than 1 gives the density a scaled copy of its own, listed as such.
+#[test]
+fn a_grid_referenced_several_times_is_stored_once() {
+    let media = Path::new(env!("CARGO_MANIFEST_DIR")).join("media");
+    let medium = |name: &str, scale: f32| {
+        format!(
+            "[media.{name}]\ntype = \"vdb\"\nfile = \"gradient.vdb\"\nsigma_a = 1\nsigma_s = 1\n\
+             density_scale = {scale}\ntemperature = {{ grid = \"density\", scale = 1000 }}\n\
+             emission_grid = {{ grids = [\"density\", \"density\", \"density\"] }}\n"
+        )
+    };
+    let text = format!(
+        "[camera]\ntype = \"perspective\"\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nfov = 40\n\
+         resolution = [8, 8]\n\n[render]\niterations = 1\n\n{}{}",
+        medium("a", 1.0),
+        medium("b", 2.0)
+    );
+    let scene = haze::Scene::from_toml(&text, &media.join("shared.toml"), &media).unwrap();
+    let grids = scene.grids();
+    let shared: Vec<(&str, bool)> = grids.iter().map(|g| (g.medium.as_str(), g.shared)).collect();
+    // a: density, temperature, 3 emission channels — one storage; b: its scaled density is a
+    // copy of its own, its temperature and emission share a's.
+    assert_eq!(
+        shared,
+        [
+            ("a", false),
+            ("a", true),
+            ("a", true),
+            ("a", true),
+            ("a", true),
+            ("b", false),
+            ("b", true),
+            ("b", true),
+            ("b", true),
+            ("b", true)
+        ],
+        "{grids:?}"
+    );
+    assert!(grids[1].to_string().contains("stored once"), "{}", grids[1]);
+}
