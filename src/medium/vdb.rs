@@ -21,8 +21,9 @@
 //! majorant: a coarse grid holding, per cell of [`MAJORANT_CELL`]³ voxels, the largest density
 //! any point of the cell can interpolate to, walked with a 3-D DDA so empty cells cost one step.
 //! Where more than [`SPLIT_STEPS`] tentative collisions are expected in a cell, the ray's part of
-//! it is bisected under tighter bounds ([`VdbMedium::density_bounds`]; docs/theory.md), so a
-//! majorant that dwarfs the density along the ray costs few steps.
+//! it is bisected under tighter bounds ([`VdbMedium::density_bounds`], times
+//! [`VdbMedium::colour_bounds`] with an extinction grid; docs/theory.md), so a majorant that
+//! dwarfs the extinction along the ray costs few steps.
 //! Transmittance is estimated by ratio tracking (Novák et al. 2014) against the same majorant; for
 //! the beam estimate one ratio-tracking run per eye segment, at four times the majorant's rate
 //! ([`super::BEAM_SEGMENT_RATE`]), is kept as a step function

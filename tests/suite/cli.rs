@@ -169,20 +169,21 @@ fn exr_iterations(path: &std::path::Path) -> u64 {
     }
 }
 
-/// After Ctrl-C, the printed resume command — run as printed, from another directory, with only
-/// a time limit added so that the test ends — continues the same output files at the same size
-/// and settings: the partial carries them. Nothing appears under the scene's default name.
-#[test]
-fn the_resume_hint_continues_the_same_outputs() {
-    let dir = temp_dir("cli-resume-hint");
-    let out = dir.join("sig.exr");
+/// An interrupted render of cornell-box to `out`, started from `cwd` with `env` set (or removed,
+/// where `None`); returns the command its resume hint prints.
+fn interrupted_hint(out: &Path, cwd: &Path, env: (&str, Option<&str>)) -> String {
     let scene = scene_path("cornell-box.toml");
-    let child = Command::new(env!("CARGO_BIN_EXE_haze"))
+    let mut command = Command::new(env!("CARGO_BIN_EXE_haze"));
+    command
         .args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()])
         .args(["-n", "100000", "-p", "2000", "--resolution", "48x32", "-a", "0.6", "-q"])
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+        .current_dir(cwd)
+        .stderr(std::process::Stdio::piped());
+    match env {
+        (k, Some(v)) => command.env(k, v),
+        (k, None) => command.env_remove(k),
+    };
+    let child = command.spawn().unwrap();
     std::thread::sleep(std::time::Duration::from_millis(1500));
     assert!(
         Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap().success()
@@ -190,16 +191,35 @@ fn the_resume_hint_continues_the_same_outputs() {
     let output = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(130), "{err}");
-    let hint = err.lines().find_map(|l| l.strip_prefix("resume with: ")).expect(&err).to_string();
-    let words: Vec<&str> = hint.split_whitespace().collect();
-    assert_eq!(words[..2], ["haze", "render"], "{hint}");
+    err.lines().find_map(|l| l.strip_prefix("resume with: ")).expect(&err).to_string()
+}
+
+/// After Ctrl-C, the printed resume command — run as printed by a shell, from the directory the
+/// render ran in, with only a time limit added so that the test ends — continues the same output
+/// files at the same size and settings: the partial carries them. It names haze as it was run
+/// (issue 38: it said `haze`, which `cargo run` users have not installed): here by its path, and
+/// `cargo run --` where cargo started it in its package. Nothing appears under the scene's
+/// default name.
+#[test]
+fn the_resume_hint_continues_the_same_outputs() {
+    let dir = temp_dir("cli-resume-hint");
+    let out = dir.join("sig.exr");
+    let elsewhere = temp_dir("cli-resume-hint-cwd");
+    let hint = interrupted_hint(&out, &elsewhere, ("CARGO_MANIFEST_DIR", None));
+    assert!(hint.starts_with(&format!("{} render ", env!("CARGO_BIN_EXE_haze"))), "{hint}");
     assert!(hint.contains("--resume") && hint.contains("sig.hpr"), "{hint}");
     assert!(hint.ends_with("--iterations 100000"), "the goal: {hint}");
+    // Started by cargo in its package, it says so (the binary lies in target/debug here).
+    let manifest = env!("CARGO_MANIFEST_DIR");
+    let cargo = interrupted_hint(
+        &dir.join("cargo.exr"),
+        Path::new(manifest),
+        ("CARGO_MANIFEST_DIR", Some(manifest)),
+    );
+    assert!(cargo.starts_with("cargo run -- render "), "{cargo}");
     let before = exr_iterations(&out);
-    let elsewhere = temp_dir("cli-resume-hint-cwd");
-    let resumed = Command::new(env!("CARGO_BIN_EXE_haze"))
-        .args(&words[1..])
-        .args(["-t", "1s", "-q"])
+    let resumed = Command::new("sh")
+        .args(["-c", &format!("{hint} -t 1s -q")])
         .current_dir(&elsewhere)
         .output()
         .unwrap();
@@ -360,4 +380,39 @@ fn bench_rays_reports_every_set_and_query() {
     }
     let (ok, err) = haze(&["bench", "rays", scene.to_str().unwrap(), "--threads", "0"]);
     assert!(!ok && err.contains("--threads 0"), "{err}");
+}
+
+/// Where standard error is not a terminal (a log file, a pipe), a render prints plain progress
+/// lines — at the first iteration, then at most one every 5 s — with one rate and one ETA
+/// (issue 38: it printed nothing until the end, and the bar showed two rates); `-q` prints none.
+#[test]
+fn a_render_into_a_log_prints_plain_progress_lines() {
+    let dir = temp_dir("cli-log-progress");
+    let scene = scene_path("cornell-box.toml");
+    let run = |quiet: bool| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_haze"));
+        c.args(["render", scene.to_str().unwrap(), "-o"]).arg(dir.join("a.exr")).args([
+            "--resolution",
+            "8x8",
+            "-p",
+            "100",
+            "-n",
+            "3",
+        ]);
+        if quiet {
+            c.arg("-q");
+        }
+        let out = c.output().unwrap();
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let err = run(false);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("progress: ")).collect();
+    assert!(!lines.is_empty(), "no progress line: {err}");
+    assert!(lines[0].starts_with("progress: 1/3 iterations, "), "{err}");
+    for l in &lines {
+        assert_eq!(l.matches("it/s").count(), 1, "{l}");
+        assert_eq!(l.matches("ETA").count(), 1, "{l}");
+    }
+    assert!(!run(true).contains("progress: "));
 }

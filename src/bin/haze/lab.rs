@@ -113,10 +113,23 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
     }
     let labels: Vec<String> = series.iter().map(|s| s.label.clone()).collect();
     let runs = args.runs;
+    let log = crate::LogLines::new(args.quiet);
     let mut on_progress = |si: usize, run: u32, seconds: f64| {
         let done = (si as f64 * runs as f64 + run as f64) * time + seconds.min(time);
         bar.set_position((done * 1000.0) as u64);
         bar.set_message(format!("{} (run {}/{runs})", labels[si], run + 1));
+        log.report(|| {
+            format!(
+                "series {} of {} ({}), run {}/{runs}: {} of {} rendered, ETA {}",
+                si + 1,
+                labels.len(),
+                labels[si],
+                run + 1,
+                crate::duration_words(done),
+                crate::duration_words(total),
+                crate::duration_words(total - done)
+            )
+        });
     };
     let samples =
         pool.install(|| converge::run(&scene, &series, &reference, &plan, &mut on_progress, stop))?;
@@ -186,10 +199,23 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
         bar.set_style(style.progress_chars("=> "));
     }
     let start = Instant::now();
+    let log = crate::LogLines::new(false);
     let rows = pool.install(|| {
         validate::run(&args.media, effort, args.case.as_deref(), |done, total| {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
+            log.report(|| {
+                let elapsed = start.elapsed().as_secs_f64();
+                let eta = if done > 0 {
+                    format!(
+                        ", ETA {}",
+                        crate::duration_words(elapsed / done as f64 * (total - done) as f64)
+                    )
+                } else {
+                    String::new()
+                };
+                format!("{done}/{total} renders{eta}")
+            });
         })
     })?;
     bar.finish_and_clear();

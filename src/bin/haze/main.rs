@@ -115,6 +115,48 @@ impl Overrides {
 }
 
 /// The most worker threads accepted: 8 per core.
+/// Seconds between two plain progress lines ([`LogLines`]).
+const LOG_EVERY: f64 = 5.0;
+
+/// Progress for a log file: where standard error is not a terminal (the progress bar then draws
+/// nothing), a plain line at the first report and then at most one every [`LOG_EVERY`] seconds,
+/// as cargo and pbrt print theirs.
+pub(crate) struct LogLines {
+    enabled: bool,
+    last: std::sync::Mutex<Option<std::time::Instant>>,
+}
+
+impl LogLines {
+    /// Lines unless `quiet`, and only where standard error is not a terminal.
+    pub(crate) fn new(quiet: bool) -> Self {
+        use std::io::IsTerminal;
+        Self { enabled: !quiet && !std::io::stderr().is_terminal(), last: Default::default() }
+    }
+
+    /// Prints `line()` (prefixed `progress: `) if it is time for one.
+    pub(crate) fn report(&self, line: impl FnOnce() -> String) {
+        if !self.enabled {
+            return;
+        }
+        let Ok(mut last) = self.last.lock() else { return };
+        if last.is_some_and(|t| t.elapsed().as_secs_f64() < LOG_EVERY) {
+            return;
+        }
+        *last = Some(std::time::Instant::now());
+        eprintln!("progress: {}", line());
+    }
+}
+
+/// Seconds as a log line shows them: `42 s`, `3 min 5 s`, `1 h 2 min`.
+pub(crate) fn duration_words(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    match s {
+        0..60 => format!("{s} s"),
+        60..3600 => format!("{} min {} s", s / 60, s % 60),
+        _ => format!("{} h {} min", s / 3600, s / 60 % 60),
+    }
+}
+
 fn max_threads() -> usize {
     8 * std::thread::available_parallelism().map_or(1, |n| n.get())
 }

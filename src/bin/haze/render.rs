@@ -8,7 +8,7 @@ use haze::progress::Status;
 use haze::settings::Integrator;
 use haze::{Partial, RenderSettings, Start};
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -168,8 +168,10 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let mut last_snapshot = Instant::now();
     let mut snapshot_error = None;
     let started = Instant::now();
+    let log = crate::LogLines::new(args.quiet);
     let mut on_iteration = |s: &Status| {
         update_bar(&bar, s);
+        log.report(|| log_line(s));
         if let Some(every) = args.snapshot_every {
             if last_snapshot.elapsed().as_secs_f64() >= every {
                 last_snapshot = Instant::now();
@@ -263,9 +265,10 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
             (None, None) => String::new(),
         };
         eprintln!(
-            "resume with: haze render {} --resume {}{goal}",
-            args.scene.display(),
-            partial_path.display()
+            "resume with: {} render {} --resume {}{goal}",
+            invocation(),
+            shell_word(&args.scene.display().to_string()),
+            shell_word(&partial_path.display().to_string())
         );
     }
     if i.nonfinite_samples > 0 {
@@ -284,9 +287,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
 
 fn progress_bar(settings: &RenderSettings) -> ProgressBar {
     let (len, template) = match (settings.iterations, settings.time_limit) {
-        (Some(n), _) => {
-            (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, {per_sec}, ETA {eta} {msg}")
-        }
+        (Some(n), _) => (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, ETA {eta} {msg}"),
         (None, Some(t)) => {
             ((t * 1000.0) as u64, "{elapsed_precise} [{bar:30}] time budget, ETA {eta} {msg}")
         }
@@ -325,8 +326,74 @@ fn update_bar(bar: &ProgressBar, s: &Status) {
             (Some(_), None) => ", error: not yet estimated".to_string(),
             _ => String::new(),
         };
-    bar.set_message(format!(
-        "it {} ({rate:.2} it/s), r = {:.5}{volume}{error}",
-        i.iterations, i.radius
-    ));
+    // One rate, the render's mean (the bar's own position says the iteration where it has one).
+    let done = if s.target_iterations.is_some() {
+        String::new()
+    } else {
+        format!("it {}, ", i.iterations)
+    };
+    bar.set_message(format!("{done}{rate:.2} it/s, r = {:.5}{volume}{error}", i.radius));
+}
+
+/// A plain progress line for a log: `12/100 iterations, 4.63 it/s, ETA 19 s, r = 0.02559`.
+fn log_line(s: &Status) -> String {
+    let i = s.info;
+    let rate = i.iterations as f64 / i.elapsed.max(1e-9);
+    let last = i.first_iteration + i.iterations - 1;
+    let (done, left) = match (s.target_iterations, s.time_limit) {
+        (Some(n), limit) => {
+            let by_count = n.saturating_sub(last) as f64 / rate.max(1e-9);
+            let left = limit.map_or(by_count, |t| by_count.min(t - i.elapsed));
+            (format!("{last}/{n} iterations"), Some(left))
+        }
+        (None, Some(t)) => (format!("{last} iterations"), Some(t - i.elapsed)),
+        (None, None) => (format!("{last} iterations"), None),
+    };
+    let eta = left.map_or(String::new(), |l| format!(", ETA {}", crate::duration_words(l)));
+    let error = match i.settings.target_error.and_then(|_| s.error_estimate()) {
+        Some(e) => format!(", error ≤ {:.2} %", 100.0 * e.upper),
+        None => String::new(),
+    };
+    format!("{done}, {rate:.2} it/s{eta}, r = {:.5}{error}", i.radius)
+}
+
+/// How this haze was started, for a command to paste: `cargo run --release --` (or `cargo run
+/// --`) where cargo ran it from its target directory, otherwise the program as it was named
+/// (`haze` found on the PATH, or a path such as `target/release/haze`, relative to the current
+/// directory where it lies below it).
+pub(crate) fn invocation() -> String {
+    let argv0 = std::env::args_os().next().map(PathBuf::from).unwrap_or_else(|| "haze".into());
+    let cwd = std::env::current_dir().ok();
+    // cargo sets CARGO_MANIFEST_DIR for what `cargo run` starts.
+    if let Some(manifest) = std::env::var_os("CARGO_MANIFEST_DIR").map(PathBuf::from) {
+        let under = |profile: &str| argv0 == manifest.join("target").join(profile).join("haze");
+        let here = cwd.as_deref() == Some(manifest.as_path());
+        if here && under("release") {
+            return "cargo run --release --".into();
+        }
+        if here && under("debug") {
+            return "cargo run --".into();
+        }
+    }
+    let shown = match &cwd {
+        Some(c) if argv0.is_absolute() => argv0.strip_prefix(c).unwrap_or(&argv0).to_path_buf(),
+        _ => argv0.clone(),
+    };
+    // A bare name would be looked up on the PATH: a program in the current directory is `./haze`.
+    let shown = if argv0.is_absolute() && shown.components().count() == 1 {
+        Path::new(".").join(shown)
+    } else {
+        shown
+    };
+    shell_word(&shown.display().to_string())
+}
+
+/// `w` quoted for a POSIX shell where it needs it.
+pub(crate) fn shell_word(w: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "/._-+=:,@%".contains(c);
+    if !w.is_empty() && w.chars().all(plain) {
+        w.to_string()
+    } else {
+        format!("'{}'", w.replace('\'', "'\\''"))
+    }
 }
