@@ -287,9 +287,9 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
 
 fn progress_bar(settings: &RenderSettings) -> ProgressBar {
     let (len, template) = match (settings.iterations, settings.time_limit) {
-        (Some(n), _) => (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, ETA {eta} {msg}"),
+        (Some(n), _) => (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, {msg}, ETA {eta}"),
         (None, Some(t)) => {
-            ((t * 1000.0) as u64, "{elapsed_precise} [{bar:30}] time budget, ETA {eta} {msg}")
+            ((t * 1000.0) as u64, "{elapsed_precise} [{bar:30}] time budget, {msg}, ETA {eta}")
         }
         // Neither (refused by the settings' validation): no length known in advance.
         (None, None) => (1, "{elapsed_precise} {spinner} {msg}"),
