@@ -180,6 +180,58 @@ impl DensityGrid {
         build(&read, path, name, layout)
     }
 
+    /// A dense grid from values made in code: `dims` voxels (x fastest), voxel (0, 0, 0)'s centre
+    /// at `translation`, voxels of `voxel_size`. Every value must be finite and non-negative,
+    /// and the grid within [`MAX_VOXELS`]; the message says what is wrong.
+    pub(crate) fn from_dense(
+        dims: IVec3,
+        values: Vec<f32>,
+        voxel_size: Vec3,
+        translation: Vec3,
+    ) -> std::result::Result<DensityGrid, String> {
+        let n = dims.as_i64vec3();
+        if dims.cmple(IVec3::ZERO).any() || n.element_product() as u64 > MAX_VOXELS {
+            return Err(format!(
+                "{}×{}×{} voxels: each axis needs at least one, and at most {MAX_VOXELS} in all",
+                dims.x, dims.y, dims.z
+            ));
+        }
+        if values.len() as i64 != n.element_product() {
+            return Err(format!(
+                "{} values for {}×{}×{} voxels",
+                values.len(),
+                dims.x,
+                dims.y,
+                dims.z
+            ));
+        }
+        if !(voxel_size.is_finite() && voxel_size.min_element() > 0.0 && translation.is_finite()) {
+            return Err(format!("a box of voxels {voxel_size} at {translation}: not a box"));
+        }
+        if let Some(k) = values.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+            let i = k as i32;
+            let at = IVec3::new(i % dims.x, i / dims.x % dims.y, i / dims.x / dims.y);
+            return Err(format!(
+                "the value at voxel {at} is {}; densities must be finite and non-negative",
+                values[k]
+            ));
+        }
+        let max = values.iter().fold(0.0f32, |a, &v| a.max(v));
+        if max <= 0.0 {
+            return Err("every value is zero: the medium would be empty".into());
+        }
+        Ok(DensityGrid {
+            origin: IVec3::ZERO,
+            dims,
+            active_voxels: values.len() as u64,
+            storage: std::sync::Arc::new(Storage::Dense(values)),
+            translation,
+            voxel_size,
+            max_density: max,
+            active_box: (IVec3::ZERO, dims - IVec3::ONE),
+        })
+    }
+
     /// The layout the voxels are stored in ([`Layout::Dense`] or [`Layout::Bricks`]).
     pub fn layout(&self) -> Layout {
         match *self.storage {

@@ -64,6 +64,21 @@ pub struct SceneBuilder {
     listed: std::collections::HashSet<usize>,
 }
 
+/// The density grid of a [`VoxelGrid`]: voxel centres inside a box of its size centred on the
+/// origin.
+fn voxel_grid(v: &crate::scene::VoxelGrid) -> std::result::Result<DensityGrid, String> {
+    let dims = glam::UVec3::from(v.dims());
+    if dims.cmpgt(glam::UVec3::splat(i32::MAX as u32)).any() {
+        return Err(format!("{dims} voxels: too many"));
+    }
+    let size = glam::Vec3::from(v.size());
+    if !(size.is_finite() && size.min_element() > 0.0) {
+        return Err(format!("a box of size {size}: each side must be positive and finite"));
+    }
+    let voxel = size / dims.max(glam::UVec3::ONE).as_vec3();
+    DensityGrid::from_dense(dims.as_ivec3(), v.values().to_vec(), voxel, 0.5 * voxel - 0.5 * size)
+}
+
 /// "defined: `a`, `b`" (at most 20 names, each quoted), or "none defined".
 fn defined<'a>(names: impl ExactSizeIterator<Item = &'a str>) -> String {
     let n = names.len();
@@ -244,6 +259,7 @@ impl SceneBuilder {
                 albedo_grid,
                 extinction_grid,
                 layout,
+                voxels,
                 ..
             } => {
                 if !(density_scale.is_finite() && density_scale >= 0.0) {
@@ -254,9 +270,28 @@ impl SceneBuilder {
                 }
                 check_transform(&transform, &format!("media.{name}"))?;
                 let grid_name = grid;
-                let mut grid = self
-                    .load_grid(&file, &grid_name, layout)
-                    .map_err(|e| invalid(key("file"), self.relative_note(&file, e.to_string())))?;
+                let mut grid = match &voxels {
+                    Some(v) => {
+                        // Grids of files cannot join a grid made in code.
+                        let from_file = [
+                            ("temperature", temperature.is_some()),
+                            ("emission_grid", emission_grid.is_some()),
+                            ("albedo_grid", albedo_grid.is_some()),
+                            ("extinction_grid", extinction_grid.is_some()),
+                        ];
+                        if let Some((k, _)) = from_file.iter().find(|(_, given)| *given) {
+                            return Err(invalid(
+                                key(k),
+                                "reads grids from the medium's file, and this medium's grid is \
+                                 made in code (MediumDesc::voxels): build it from a file instead",
+                            ));
+                        }
+                        voxel_grid(v).map_err(|m| invalid(key("voxels"), m))?
+                    }
+                    None => self.load_grid(&file, &grid_name, layout).map_err(|e| {
+                        invalid(key("file"), self.relative_note(&file, e.to_string()))
+                    })?,
+                };
                 let to_scene = transform.matrix();
                 let temperature = match temperature {
                     Some(t) => Some(self.temperature_field(name, &file, &t, to_scene, layout)?),
@@ -786,4 +821,77 @@ fn check_geometry(geometry: &Geometry, label: &str) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{CameraDesc, VoxelGrid};
+    use glam::Vec3;
+
+    fn builder() -> SceneBuilder {
+        SceneBuilder::new(CameraDesc::perspective([0.0, 0.0, 4.0], [0.0, 0.0, 0.0], 40.0))
+    }
+
+    fn vdb_of(m: &Medium) -> &crate::medium::vdb::VdbMedium {
+        match m {
+            Medium::Vdb(v) => v,
+            _ => panic!("not a grid medium"),
+        }
+    }
+
+    /// A grid made in code equals the file it copies: media/box.vdb (16³ voxels of 1, voxel i's
+    /// centre at i/16 as OpenVDB places it) against a `VoxelGrid` of 16³ ones over a unit box
+    /// (centred on the origin) moved by 0.5 − 1/32 — the same density at points inside, on the
+    /// interpolation's ramp at the faces, and outside.
+    #[test]
+    fn a_voxel_grid_is_placed_and_interpolated_as_the_file_it_copies() {
+        let mut b = builder();
+        let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("media/box.vdb");
+        let a = b.medium("file", MediumDesc::vdb(file)).unwrap();
+        let ones = VoxelGrid::from_fn([16, 16, 16], [1.0, 1.0, 1.0], |_| 1.0);
+        let code = b
+            .medium(
+                "code",
+                MediumDesc::voxels(ones).transform(crate::scene::Transform {
+                    translate: Vec3::splat(0.5 - 1.0 / 32.0),
+                    ..Default::default()
+                }),
+            )
+            .unwrap();
+        let (a, code) = (vdb_of(&b.media[a.0 as usize].1), vdb_of(&b.media[code.0 as usize].1));
+        let mut rng = crate::rng::Sampler::new(7, crate::rng::Purpose::Photon, 0, 0);
+        for _ in 0..2000 {
+            let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 1.4 - 0.2;
+            assert!(
+                (a.density(p) - code.density(p)).abs() < 1e-5,
+                "{p}: {} {}",
+                a.density(p),
+                code.density(p)
+            );
+        }
+        assert!(b.grids[1].grid.contains("in memory"), "{}", b.grids[1]);
+    }
+
+    /// What a grid made in code cannot be: values of the wrong count, NaN or negative, all zero,
+    /// a box without size, or joined by grids that come from files.
+    #[test]
+    fn bad_voxel_grids_name_what_is_wrong() {
+        let cases: [(VoxelGrid, &str); 5] = [
+            (VoxelGrid::new([2, 2, 2], [1.0; 3], vec![1.0; 7]), "7 values for 2×2×2 voxels"),
+            (VoxelGrid::new([1, 1, 2], [1.0; 3], vec![1.0, f32::NAN]), "voxel [0, 0, 1] is NaN"),
+            (VoxelGrid::new([1, 1, 1], [1.0; 3], vec![0.0]), "every value is zero"),
+            (VoxelGrid::new([1, 1, 1], [0.0, 1.0, 1.0], vec![1.0]), "each side must be positive"),
+            (VoxelGrid::new([0, 1, 1], [1.0; 3], vec![]), "each axis needs at least one"),
+        ];
+        for (grid, needle) in cases {
+            let e = builder().medium("m", MediumDesc::voxels(grid)).unwrap_err().to_string();
+            assert!(e.starts_with("media.m.voxels: ") && e.contains(needle), "{e}");
+        }
+        let ball = VoxelGrid::from_fn([4, 4, 4], [1.0; 3], |p| 1.0 - p.length());
+        let hot =
+            MediumDesc::voxels(ball).coefficients(0.5, 0.5).emission_grid(["r", "g", "b"], 1.0);
+        let e = builder().medium("m", hot).unwrap_err().to_string();
+        assert!(e.starts_with("media.m.emission_grid: ") && e.contains("made in code"), "{e}");
+    }
 }

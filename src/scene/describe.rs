@@ -182,7 +182,73 @@ pub enum MediumDesc {
         layout: GridLayout,
         /// Places the grid's world space in the scene.
         transform: Transform,
+        /// A grid made in code ([`MediumDesc::voxels`]) in place of `file`'s: the density only
+        /// (the temperature and colour grids come from files).
+        voxels: Option<std::sync::Arc<VoxelGrid>>,
     },
+}
+
+/// A density grid made in code, for small procedural media that need no file: `dims` voxels
+/// filling a box of `size` scene units centred on the origin (the medium's transform places it),
+/// each voxel's value at its centre, interpolated trilinearly between centres like an OpenVDB
+/// grid's and zero beyond the outer centres' half voxel.
+///
+/// ```
+/// use haze::scene::VoxelGrid;
+/// // A soft ball of smoke, 32³ voxels over a 2-unit cube.
+/// let ball = VoxelGrid::from_fn([32, 32, 32], [2.0, 2.0, 2.0], |p| (1.0 - p.length()).max(0.0));
+/// assert_eq!(ball.values().len(), 32 * 32 * 32);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct VoxelGrid {
+    dims: [u32; 3],
+    size: [f32; 3],
+    values: Vec<f32>,
+}
+
+impl VoxelGrid {
+    /// A grid of `dims` voxels over a box of `size`, from its values, x fastest, then y, then z
+    /// (`values.len()` must be the voxel count; checked when the scene is built, with the values:
+    /// finite and non-negative).
+    pub fn new(dims: [u32; 3], size: [f32; 3], values: Vec<f32>) -> Self {
+        Self { dims, size, values }
+    }
+
+    /// A grid of `dims` voxels over a box of `size`, with `density(p)` at each voxel centre p
+    /// (scene units, the box centred on the origin). Dims whose product exceeds haze's dense
+    /// limit (2²⁷ voxels) give an empty grid, refused when the scene is built.
+    pub fn from_fn(dims: [u32; 3], size: [f32; 3], density: impl Fn(glam::Vec3) -> f32) -> Self {
+        let n = dims.iter().map(|&d| d as u64).product::<u64>();
+        if n > crate::medium::grid::MAX_VOXELS {
+            return Self { dims, size, values: Vec::new() };
+        }
+        let (d, sz) = (glam::UVec3::from(dims).as_vec3(), glam::Vec3::from(size));
+        let mut values = Vec::with_capacity(n as usize);
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    let centre = (glam::UVec3::new(i, j, k).as_vec3() + 0.5) / d * sz - 0.5 * sz;
+                    values.push(density(centre));
+                }
+            }
+        }
+        Self { dims, size, values }
+    }
+
+    /// The voxels along each axis.
+    pub fn dims(&self) -> [u32; 3] {
+        self.dims
+    }
+
+    /// The box's size in scene units (before the medium's transform).
+    pub fn size(&self) -> [f32; 3] {
+        self.size
+    }
+
+    /// The values, x fastest.
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
 }
 
 /// Blackbody emission of a grid medium from a temperature grid of the same file, as pbrt-v4's
@@ -244,7 +310,21 @@ impl MediumDesc {
             extinction_grid: None,
             layout: GridLayout::Auto,
             transform: Transform::default(),
+            voxels: None,
         }
+    }
+
+    /// A grid medium from a density grid made in code ([`VoxelGrid`]), with σ_a = 0 and σ_s = 1
+    /// per unit density until [`Self::coefficients`] or [`Self::albedo_extinction`] say
+    /// otherwise. Needs no file: temperature and colour grids (which are read from files) cannot
+    /// be added to it.
+    pub fn voxels(grid: VoxelGrid) -> Self {
+        let mut d = Self::vdb(PathBuf::new());
+        if let MediumDesc::Vdb { voxels, grid: name, .. } = &mut d {
+            *voxels = Some(std::sync::Arc::new(grid));
+            *name = "(in memory)".into();
+        }
+        d
     }
 
     /// Sets the emitted radiance L_e (the medium adds σ_a L_e per unit length; zero by default).

@@ -270,6 +270,7 @@ fn vdb(d: &VdbDef, key: &str, places: &Places, base_dir: &Path) -> Result<Medium
             Some(LayoutDef::Bricks) => GridLayout::Bricks,
         },
         transform: transform(&d.transform),
+        voxels: None,
     })
 }
 

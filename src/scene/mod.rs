@@ -14,7 +14,7 @@ pub use builder::{MAX_TESSELLATION, SceneBuilder};
 pub use camera::{CameraDesc, Lens, MAX_PIXELS};
 pub use describe::{
     GeometryDesc, GridLayout, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc,
-    MediumId, MediumRef, ShapeDesc, TemperatureDesc, Transform,
+    MediumId, MediumRef, ShapeDesc, TemperatureDesc, Transform, VoxelGrid,
 };
 pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
