@@ -33,6 +33,7 @@
 //! each time, with no per-voxel list in between: the memory it takes is the final copy, the
 //! census (a set of brick indices) and a node's worth of buffers.
 
+use super::blocks::Blocked;
 use super::vdbscan::{Input, check_header};
 use crate::error::{Error, Result, quote};
 use glam::{IVec3, Vec3};
@@ -83,14 +84,14 @@ enum Storage {
 }
 
 /// The sparse layout: bricks of [`BRICK`]³ voxels aligned to multiples of [`BRICK`] in index
-/// space (as OpenVDB's leaf nodes are), from the grid's origin.
+/// space (as OpenVDB's leaf nodes are), from the grid's origin (a multiple of 64 voxels, so that
+/// OpenVDB's larger tiles cover whole blocks of the table).
 #[derive(Clone, Debug)]
 struct Bricks {
-    /// Bricks along each axis.
-    count: IVec3,
-    /// Per brick (x fastest): [`EMPTY`], [`CONSTANT`] | index into `constants`, or the index of
-    /// its 512 values in `pool`.
-    table: Vec<u32>,
+    /// Per brick: [`EMPTY`], [`CONSTANT`] | index into `constants`, or the index of its 512
+    /// values in `pool`; stored by blocks of 8³ bricks, so that a block of one tile's bricks is
+    /// one entry.
+    table: Blocked<u32>,
     constants: Vec<f32>,
     /// Stored bricks' values, x fastest within a brick.
     pool: Vec<f32>,
@@ -99,7 +100,7 @@ struct Bricks {
 impl Bricks {
     #[inline]
     fn entry(&self, b: IVec3) -> u32 {
-        self.table[(b.x + self.count.x * (b.y + self.count.y * b.z)) as usize]
+        self.table.get(b)
     }
 
     /// The value at `q` (relative to the grid's origin, inside its box).
@@ -249,7 +250,7 @@ impl DensityGrid {
     pub fn stored_bytes(&self) -> usize {
         match &*self.storage {
             Storage::Dense(d) => 4 * d.len(),
-            Storage::Bricks(b) => 4 * (b.table.len() + b.constants.len() + b.pool.len()),
+            Storage::Bricks(b) => b.table.bytes() + 4 * (b.constants.len() + b.pool.len()),
         }
     }
 
@@ -277,7 +278,7 @@ impl DensityGrid {
         match &*self.storage {
             Storage::Dense(d) => values(d, feed),
             Storage::Bricks(b) => {
-                b.table.iter().for_each(|e| feed(&e.to_le_bytes()));
+                b.table.for_each_cell(|e| feed(&e.to_le_bytes()));
                 values(&b.constants, feed);
                 values(&b.pool, feed);
             }
@@ -287,12 +288,11 @@ impl DensityGrid {
     /// The largest value of any voxel of each majorant cell's interpolation range: cell k (x
     /// fastest, `cells` along each axis) covers voxels lo + k·[`MAJORANT_CELL`] + [0,
     /// MAJORANT_CELL]³. The same in both layouts (bricks skip the cells whose bricks are all
-    /// empty). Built in parallel over z.
-    pub(crate) fn majorants(&self, lo: IVec3, cells: IVec3) -> Vec<f32> {
+    /// empty or constant). Built in parallel by blocks of 8³ cells, a block of equal values
+    /// stored as one ([`Blocked`]).
+    pub(crate) fn majorants(&self, lo: IVec3, cells: IVec3) -> Blocked<f32> {
         use rayon::prelude::*;
         let m = MAJORANT_CELL;
-        let slice = (cells.x * cells.y) as usize;
-        let mut out = vec![0.0f32; slice * cells.z as usize];
         // Largest value of each stored brick (sparse layout; constant bricks are their value).
         let pool_max: Vec<f32> = match &*self.storage {
             Storage::Dense(_) => Vec::new(),
@@ -311,52 +311,45 @@ impl DensityGrid {
                 pool_max[e as usize]
             }
         };
-        out.par_chunks_mut(slice).enumerate().for_each(|(cz, plane)| {
-            for cy in 0..cells.y {
-                for cx in 0..cells.x {
-                    let base = lo + IVec3::new(cx, cy, cz as i32) * m;
-                    // Bricks skip the cells they know to be empty, and need no voxel lookups
-                    // where every brick the cell's range touches is constant (a tile).
-                    let mut bound = f32::INFINITY;
-                    if let Storage::Bricks(b) = &*self.storage {
-                        bound = 0.0;
-                        let mut constant = true;
-                        // The bricks the range [base, base + m] touches, within the table.
-                        let first: IVec3 = ((base - self.origin) >> 3i32).max(IVec3::ZERO);
-                        let last: IVec3 =
-                            ((base + IVec3::splat(m) - self.origin) >> 3i32).min(b.count - 1);
-                        for z in first.z..=last.z {
-                            for y in first.y..=last.y {
-                                for x in first.x..=last.x {
-                                    let k = x + b.count.x * (y + b.count.y * z);
-                                    let e = b.table[k as usize];
-                                    bound = bound.max(brick_max(b, e));
-                                    constant &= e == EMPTY || e & CONSTANT != 0;
-                                }
-                            }
-                        }
-                        if constant {
-                            // Every voxel of those bricks holds its brick's value (and voxels
-                            // outside the table are zero): the bound is the largest value.
-                            plane[(cx + cells.x * cy) as usize] = bound;
-                            continue;
+        Blocked::from_fn(cells, |cell| {
+            let base = lo + cell * m;
+            // Bricks skip the cells they know to be empty, and need no voxel lookups where every
+            // brick the cell's range touches is constant (a tile).
+            let mut bound = f32::INFINITY;
+            if let Storage::Bricks(b) = &*self.storage {
+                bound = 0.0;
+                let mut constant = true;
+                // The bricks the range [base, base + m] touches, within the table.
+                let first: IVec3 = ((base - self.origin) >> 3i32).max(IVec3::ZERO);
+                let last: IVec3 =
+                    ((base + IVec3::splat(m) - self.origin) >> 3i32).min(b.table.count() - 1);
+                for z in first.z..=last.z {
+                    for y in first.y..=last.y {
+                        for x in first.x..=last.x {
+                            let e = b.entry(IVec3::new(x, y, z));
+                            bound = bound.max(brick_max(b, e));
+                            constant &= e == EMPTY || e & CONSTANT != 0;
                         }
                     }
-                    let mut v = 0.0f32;
-                    if bound > 0.0 {
-                        for z in 0..=m {
-                            for y in 0..=m {
-                                for x in 0..=m {
-                                    v = v.max(self.voxel(base + IVec3::new(x, y, z)));
-                                }
-                            }
-                        }
-                    }
-                    plane[(cx + cells.x * cy) as usize] = v;
+                }
+                if constant {
+                    // Every voxel of those bricks holds its brick's value (and voxels outside
+                    // the table are zero): the bound is the largest value.
+                    return bound;
                 }
             }
-        });
-        out
+            let mut v = 0.0f32;
+            if bound > 0.0 {
+                for z in 0..=m {
+                    for y in 0..=m {
+                        for x in 0..=m {
+                            v = v.max(self.voxel(base + IVec3::new(x, y, z)));
+                        }
+                    }
+                }
+            }
+            v
+        })
     }
 
     /// Lower and upper bounds of the (scaled) values on the index-space segment from `q0` to
@@ -761,45 +754,56 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
                 )));
             }
             let count = brick_count.as_ivec3();
+            // Blocks of the table aligned to 8 bricks in index space, as OpenVDB's tiles of 128³
+            // voxels and more are: such a tile fills whole blocks.
+            let offset = (brick_lo >> 3) & 7;
             let mut b = Bricks {
-                count,
-                table: vec![EMPTY; table as usize],
+                table: Blocked::new(count, offset, EMPTY),
                 constants: Vec::new(),
                 pool: Vec::with_capacity(c.stored.len() * BRICK_VOXELS),
             };
             drop(std::mem::take(&mut c.stored));
-            let index = |q: IVec3| (q.x + count.x * (q.y + count.y * q.z)) as usize;
             for_each_item(read, path, name, |p, edge, v| {
                 let q = p - brick_lo;
                 if edge >= BRICK {
-                    // A tile: whole bricks of one value, stored once.
+                    // A tile: whole bricks of one value, stored once; whole blocks of the table
+                    // where it covers them.
                     let n = edge / BRICK;
                     let entry = CONSTANT | b.constants.len() as u32;
                     b.constants.push(v);
-                    for z in 0..n {
-                        for y in 0..n {
-                            for x in 0..n {
-                                b.table[index((q >> 3) + IVec3::new(x, y, z))] = entry;
+                    let first = q >> 3;
+                    let step = if n % 8 == 0 && b.table.starts_block(first) { 8 } else { 1 };
+                    for z in (0..n).step_by(step) {
+                        for y in (0..n).step_by(step) {
+                            for x in (0..n).step_by(step) {
+                                let k = first + IVec3::new(x, y, z);
+                                if step == 8 {
+                                    b.table.fill_block(k, entry);
+                                } else {
+                                    b.table.set(k, entry);
+                                }
                             }
                         }
                     }
                 } else {
-                    let k = index(q >> 3);
-                    if b.table[k] == EMPTY {
-                        b.table[k] = (b.pool.len() / BRICK_VOXELS) as u32;
+                    let k = q >> 3;
+                    let mut e = b.table.get(k);
+                    if e == EMPTY {
+                        e = (b.pool.len() / BRICK_VOXELS) as u32;
+                        b.table.set(k, e);
                         b.pool.resize(b.pool.len() + BRICK_VOXELS, 0.0);
                     }
-                    if b.table[k] & CONSTANT != 0 {
+                    if e & CONSTANT != 0 {
                         // A voxel in a brick a tile covers (two root nodes at one origin in a
                         // corrupt file): the brick becomes the tile's value with the voxel
                         // written over it, as the dense layout stores it.
-                        let c = b.constants[(b.table[k] & !CONSTANT) as usize];
-                        b.table[k] = (b.pool.len() / BRICK_VOXELS) as u32;
+                        let c = b.constants[(e & !CONSTANT) as usize];
+                        e = (b.pool.len() / BRICK_VOXELS) as u32;
+                        b.table.set(k, e);
                         b.pool.resize(b.pool.len() + BRICK_VOXELS, c);
                     }
                     let l = q & (BRICK - 1);
-                    b.pool[b.table[k] as usize * BRICK_VOXELS
-                        + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
+                    b.pool[e as usize * BRICK_VOXELS + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
                 }
             })?;
             let dims = (c.hi - brick_lo) + IVec3::ONE;
@@ -1203,6 +1207,30 @@ mod layout_tests {
             let start = dense.origin - 1;
             assert_eq!(dense.majorants(start, cells), bricks.majorants(start, cells), "{file}");
         }
+    }
+
+    /// One constant 2048³ region stored as OpenVDB tiles (a 9 KB file, tests/fuzz-corpus/cli):
+    /// its brick table and its majorants hold a few uniform blocks, not an entry per brick and a
+    /// value per cell (issue 37: 64 MB each, and 59 s to find majorants voxel by voxel).
+    #[test]
+    fn a_constant_region_of_tiles_costs_a_few_values() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz-corpus/cli/tiles-2048.vdb");
+        let g = DensityGrid::load(&path, "density").unwrap();
+        assert_eq!((g.layout(), g.active_voxels), (Layout::Bricks, 1 << 33));
+        assert!(g.stored_bytes() < 1 << 20, "{} bytes", g.stored_bytes());
+        for (q, v) in
+            [([0, 0, 0], 1.0), ([2047, 1000, 3], 1.0), ([2048, 0, 0], 0.0), ([-1, 5, 5], 0.0)]
+        {
+            assert_eq!(g.voxel(IVec3::from(q)), v, "{q:?}");
+        }
+        let cells = IVec3::splat((2048 + 2 + MAJORANT_CELL - 1) / MAJORANT_CELL);
+        let m = g.majorants(IVec3::splat(-1), cells);
+        assert!(m.bytes() < 1 << 20, "majorants: {} bytes", m.bytes());
+        assert_eq!(
+            (m.get(IVec3::ZERO), m.get(IVec3::splat(100)), m.get(cells - 1)),
+            (1.0, 1.0, 1.0)
+        );
     }
 
     /// Tiles are stored as one value per brick: the tiles file's bricks take a few hundred KB

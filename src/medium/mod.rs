@@ -13,6 +13,7 @@
 //! ```
 
 pub mod blackbody;
+pub(crate) mod blocks;
 pub mod grid;
 pub mod homogeneous;
 pub mod phase;

@@ -36,6 +36,7 @@
 //! channel ([`VdbMedium::sample_free_flight`]; docs/theory.md).
 
 use super::FreeFlight;
+use super::blocks::Blocked;
 use super::grid::{DensityGrid, MAJORANT_CELL};
 use super::phase::HenyeyGreenstein;
 use crate::math::Rgb;
@@ -135,10 +136,10 @@ pub struct VdbMedium {
     extinction_grid: Option<Box<ColourField>>,
     /// Per majorant cell, a bound on the normalised extinction field's channels there (each
     /// cell's μ̄ is its density majorant times this times σ_t); empty without an extinction grid.
-    extinction_majorant: Vec<f32>,
+    extinction_majorant: Option<Blocked<f32>>,
     phase: HenyeyGreenstein,
     /// Majorant densities per coarse cell (x fastest), covering index space from `lo`.
-    majorant: Vec<f32>,
+    majorant: Blocked<f32>,
     cells: IVec3,
     lo: Vec3,
     /// Trackings cut at [`MAX_TRACKING_STEPS`].
@@ -300,7 +301,7 @@ impl VdbMedium {
             emission_grid: None,
             albedo_grid: None,
             extinction_grid: None,
-            extinction_majorant: Vec::new(),
+            extinction_majorant: None,
             phase,
             majorant,
             cells,
@@ -351,21 +352,18 @@ impl VdbMedium {
             // the field too (a constant density with all its structure in the colour still
             // skips the field's empty regions); 1 (the normalised maximum) elsewhere. Raised by
             // a few ulps for the rounding of trilinear lookups.
-            let n = self.majorant.len();
             self.extinction_majorant = if field.to_index.iter().all(|t| *t == self.to_index) {
-                let per: Vec<Vec<f32>> = field
+                let per: Vec<Blocked<f32>> = field
                     .grids
                     .iter()
                     .map(|g| g.majorants(self.lo.as_ivec3(), self.cells))
                     .collect();
-                (0..n)
-                    .map(|i| {
-                        let m = per.iter().map(|m| m[i]).fold(0.0f32, f32::max);
-                        m * field.scale * (1.0 + 1e-5)
-                    })
-                    .collect()
+                let scale = field.scale * (1.0 + 1e-5);
+                Some(Blocked::from_fn(self.cells, |c| {
+                    per.iter().map(|m| m.get(c)).fold(0.0f32, f32::max) * scale
+                }))
             } else {
-                vec![1.0; n]
+                None
             };
             self.extinction_grid = Some(Box::new(field));
         }
@@ -435,7 +433,7 @@ impl VdbMedium {
 
     /// The grid's density (scaled), its map from scene to index space, and the majorant cells
     /// (count, index-space origin and majorants), for samplers of the medium's emission.
-    pub(crate) fn layout(&self) -> (&DensityGrid, Affine3A, IVec3, Vec3, &[f32]) {
+    pub(crate) fn layout(&self) -> (&DensityGrid, Affine3A, IVec3, Vec3, &Blocked<f32>) {
         (&self.grid, self.to_index, self.cells, self.lo, &self.majorant)
     }
 
@@ -608,10 +606,9 @@ impl VdbMedium {
             }
         };
         crate::dda::walk(oc, dc, t_max, self.cells, |cell, a, b| {
-            let i = (cell.x + self.cells.x * (cell.y + self.cells.y * cell.z)) as usize;
             // The extinction field's bound in the cell, if any.
-            let tint = self.extinction_majorant.get(i).copied().unwrap_or(1.0);
-            let mu = self.majorant[i] * self.sigma_t * tint;
+            let tint = self.extinction_majorant.as_ref().map_or(1.0, |e| e.get(cell));
+            let mu = self.majorant.get(cell) * self.sigma_t * tint;
             if mu <= 0.0 {
                 return true;
             }
@@ -1103,8 +1100,9 @@ mod tests {
         let sigma_t_at = |c: usize, t: f32| sigma_t[c] * e(ray.o + Vec3::X * t)[c];
         // The majorants follow the field (its grids share the density's index space).
         let Medium::Vdb(v) = &m else { unreachable!() };
-        let tightest = v.extinction_majorant.iter().fold(1.0f32, |a, &b| a.min(b));
-        assert!(tightest < 0.9, "extinction majorants {:?}", v.extinction_majorant);
+        let e = v.extinction_majorant.as_ref().expect("the field's majorants");
+        let tightest = e.stored().fold(1.0f32, f32::min);
+        assert!(tightest < 0.9, "extinction majorants {e:?}");
         // As built, and with cells bisected wherever a tighter bound can help.
         for (k, split) in [SPLIT_STEPS, 1.0].into_iter().enumerate() {
             let m = with_split(m.clone(), split);

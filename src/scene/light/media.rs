@@ -359,12 +359,12 @@ fn grid_cells(m: &Medium, v: &crate::medium::vdb::VdbMedium) -> (Region, f32) {
     let per_cell: Vec<(f32, Option<Vec<f32>>)> = (0..count)
         .into_par_iter()
         .map(|i| {
-            // A cell without density emits nothing (and costs no lookups).
-            if majorant[i] <= 0.0 {
-                return (0.0, None);
-            }
             let i = i as i32;
             let c = IVec3::new(i % cells.x, i / cells.x % cells.y, i / cells.x / cells.y);
+            // A cell without density emits nothing (and costs no lookups).
+            if majorant.get(c) <= 0.0 {
+                return (0.0, None);
+            }
             let base = (lo + (c * cell).as_vec3()).as_ivec3();
             // The (cell + 1)³ voxels the cell's interpolation reads: density, the temperature's
             // emission bound range, the colour grids' mean channel.
