@@ -105,7 +105,8 @@ impl Partial {
     }
 
     /// Checks that `other` is a piece of the same render: same scene fingerprint, image size and
-    /// settings (all but `iterations` and `time_limit`). The error names the first difference.
+    /// settings (all but the stop conditions: `iterations`, `time_limit` and the target error's
+    /// keys). The error names the first difference.
     pub fn check_compatible(&self, other: &Partial) -> std::result::Result<(), String> {
         let size = [other.film.width(), other.film.height()];
         self.check_matches(&other.fingerprint, size, &other.info.settings)
