@@ -109,9 +109,10 @@ pub mod fuzzing {
         crate::Partial::from_bytes(bytes, Path::new("fuzz.hpr")).map(|_| ())
     }
 
-    /// The OBJ loader on a file's bytes.
+    /// The OBJ loader on a file's bytes, then the PLY loader on the same bytes.
     pub fn obj(bytes: &[u8]) -> crate::Result<()> {
-        crate::scene::shape::obj_from_bytes(bytes, Path::new("fuzz.obj")).map(|_| ())
+        let ply = crate::scene::shape::ply_from_bytes(bytes, Path::new("fuzz.ply"));
+        crate::scene::shape::obj_from_bytes(bytes, Path::new("fuzz.obj")).and(ply).map(|_| ())
     }
 
     /// The OpenVDB loader (header check, vdb-rs on the header, haze's tree reader, checks, the

@@ -485,14 +485,15 @@ impl SceneBuilder {
         check_transform(&desc.transform, &label)?;
         let geometry = geometry(&desc.geometry, &desc.transform, &label).map_err(|e| {
             match (&desc.geometry, e) {
-                (GeometryDesc::Obj(path), Error::Invalid { path: p, line, key, message }) => {
-                    Error::Invalid {
-                        path: p,
-                        line,
-                        key,
-                        message: self.relative_note(path, message),
-                    }
-                }
+                (
+                    GeometryDesc::Obj(path) | GeometryDesc::Ply(path),
+                    Error::Invalid { path: p, line, key, message },
+                ) => Error::Invalid {
+                    path: p,
+                    line,
+                    key,
+                    message: self.relative_note(path, message),
+                },
                 (_, e) => e,
             }
         })?;
@@ -773,6 +774,11 @@ fn geometry(g: &GeometryDesc, t: &Transform, key: &str) -> Result<Geometry> {
         GeometryDesc::Mesh(mesh) => Geometry::Mesh(mesh.clone().transformed(&m)),
         GeometryDesc::Obj(path) => Geometry::Mesh(
             shape::load_obj(path)
+                .map_err(|e| invalid(format!("{key}.file"), e.to_string()))?
+                .transformed(&m),
+        ),
+        GeometryDesc::Ply(path) => Geometry::Mesh(
+            shape::load_ply(path)
                 .map_err(|e| invalid(format!("{key}.file"), e.to_string()))?
                 .transformed(&m),
         ),

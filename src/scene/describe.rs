@@ -463,6 +463,8 @@ pub enum GeometryDesc {
     Mesh(Mesh),
     /// A Wavefront OBJ file (every object, as one mesh).
     Obj(PathBuf),
+    /// A PLY file, ASCII or binary (its `vertex` and `face` elements).
+    Ply(PathBuf),
 }
 
 /// A shape, as a `[[shapes]]` table describes it: geometry, material, optional emission and the
@@ -518,6 +520,13 @@ impl ShapeDesc {
     /// The meshes of a Wavefront OBJ file.
     pub fn obj(file: impl Into<PathBuf>) -> Self {
         Self::of(GeometryDesc::Obj(file.into()))
+    }
+
+    /// The mesh of a PLY file (ASCII or binary, as pbrt-v4's and Mitsuba's scene collections
+    /// store meshes): its `vertex` element's x, y, z (and nx, ny, nz if every vertex has them)
+    /// and its `face` element's `vertex_indices`, polygons split into fans.
+    pub fn ply(file: impl Into<PathBuf>) -> Self {
+        Self::of(GeometryDesc::Ply(file.into()))
     }
 
     /// Sets the material, by name or id.

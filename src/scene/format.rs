@@ -309,6 +309,7 @@ shape_def!(MeshDef {
     normals: Option<Vec<[f32; 3]>>,
 });
 shape_def!(ObjDef { file: String });
+shape_def!(PlyDef { file: String });
 
 #[derive(Debug)]
 pub enum ShapeDef {
@@ -317,6 +318,7 @@ pub enum ShapeDef {
     Sphere(SphereDef),
     Mesh(MeshDef),
     Obj(ObjDef),
+    Ply(PlyDef),
 }
 
 #[derive(Debug, Deserialize)]
@@ -636,12 +638,13 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         })
     })?;
     let shapes = listed(root, "shapes", |kind, v, key| {
-        Ok(match kind(v, key, &["rectangle", "box", "sphere", "mesh", "obj"])? {
+        Ok(match kind(v, key, &["rectangle", "box", "sphere", "mesh", "obj", "ply"])? {
             "rectangle" => ShapeDef::Rectangle(typed(v, key)?),
             "box" => ShapeDef::Box(typed(v, key)?),
             "sphere" => ShapeDef::Sphere(typed(v, key)?),
             "mesh" => ShapeDef::Mesh(typed(v, key)?),
-            _ => ShapeDef::Obj(typed(v, key)?),
+            "obj" => ShapeDef::Obj(typed(v, key)?),
+            _ => ShapeDef::Ply(typed(v, key)?),
         })
     })?;
     let lights = listed(root, "lights", |kind, v, key| {

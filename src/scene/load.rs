@@ -380,6 +380,14 @@ fn shape(def: &ShapeDef, base_dir: &Path) -> ShapeDesc {
             &d.interior,
             &d.exterior,
         ),
+        ShapeDef::Ply(d) => (
+            GeometryDesc::Ply(base_dir.join(&d.file)),
+            &d.material,
+            d.emission,
+            &d.transform,
+            &d.interior,
+            &d.exterior,
+        ),
     };
     ShapeDesc {
         geometry,

@@ -17,6 +17,8 @@
 //! type = "mesh"             # vertices = [[x,y,z], …], triangles = [[i,j,k], …], normals optional
 //! [[shapes]]
 //! type = "obj"              # file = "bunny.obj", relative to the scene file
+//! [[shapes]]
+//! type = "ply"              # file = "bunny.ply" (ASCII or binary), relative to the scene file
 //! ```
 //!
 //! Transforms apply scale, then rotation (degrees about x, then y, then z), then translation.
@@ -230,6 +232,89 @@ pub(crate) fn obj_from_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
         if normals.iter().all(|n| n.is_finite() && n.length_squared() > 0.0) {
             mesh.normals = Some(normals.iter().map(|n| n.normalize()).collect());
         }
+    }
+    Ok(mesh)
+}
+
+/// Loads the mesh of a PLY file, ASCII or binary ([`ply_from_bytes`]).
+pub(crate) fn load_ply(path: &Path) -> Result<Mesh> {
+    let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
+    if !path.exists() {
+        return Err(mesh_err("no such file".into()));
+    }
+    let bytes = super::read_bounded(path, MAX_OBJ_BYTES, "a PLY file")?;
+    ply_from_bytes(&bytes, path)
+}
+
+/// Parses the bytes of a PLY file (`path` names it in messages) through ply-rs-bw: the `vertex`
+/// element's `x`, `y`, `z` (any numeric type) and, where every vertex has them, `nx`, `ny`,
+/// `nz`; the `face` element's `vertex_indices` (or `vertex_index`) lists, polygons of more than
+/// three vertices split into fans from their first vertex. Other elements and properties are
+/// ignored.
+pub(crate) fn ply_from_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
+    use ply_rs_bw::ply::Property;
+    let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
+    let parser = ply_rs_bw::parser::Parser::<ply_rs_bw::ply::DefaultElement>::new();
+    let parsed = std::panic::catch_unwind(|| parser.read_ply(&mut &bytes[..]));
+    let ply = match parsed {
+        Ok(Ok(p)) => p,
+        Ok(Err(e)) => {
+            let text = e.to_string();
+            return Err(mesh_err(format!("not a readable PLY file: {}", text.trim())));
+        }
+        Err(_) => return Err(mesh_err("not a readable PLY file (the reader failed)".into())),
+    };
+    let number = |p: Option<&Property>| -> Option<f32> {
+        Some(match p? {
+            Property::Float(v) => *v,
+            Property::Double(v) => *v as f32,
+            Property::Char(v) => *v as f32,
+            Property::UChar(v) => *v as f32,
+            Property::Short(v) => *v as f32,
+            Property::UShort(v) => *v as f32,
+            Property::Int(v) => *v as f32,
+            Property::UInt(v) => *v as f32,
+            _ => return None,
+        })
+    };
+    let vertices = ply.payload.get("vertex").map_or(&[][..], |v| &v[..]);
+    let mut mesh = Mesh::default();
+    let mut normals = Vec::new();
+    for (k, v) in vertices.iter().enumerate() {
+        let p = [v.get("x"), v.get("y"), v.get("z")].map(number);
+        let [Some(x), Some(y), Some(z)] = p else {
+            return Err(mesh_err(format!("vertex {k} has no numeric x, y and z")));
+        };
+        mesh.positions.push(Vec3::new(x, y, z));
+        if let [Some(a), Some(b), Some(c)] = [v.get("nx"), v.get("ny"), v.get("nz")].map(number) {
+            normals.push(Vec3::new(a, b, c));
+        }
+    }
+    let n = mesh.positions.len();
+    let faces = ply.payload.get("face").map_or(&[][..], |f| &f[..]);
+    for (k, f) in faces.iter().enumerate() {
+        let list = f.get("vertex_indices").or_else(|| f.get("vertex_index"));
+        let indices: Vec<i64> = match list {
+            Some(Property::ListChar(l)) => l.iter().map(|&i| i as i64).collect(),
+            Some(Property::ListUChar(l)) => l.iter().map(|&i| i as i64).collect(),
+            Some(Property::ListShort(l)) => l.iter().map(|&i| i as i64).collect(),
+            Some(Property::ListUShort(l)) => l.iter().map(|&i| i as i64).collect(),
+            Some(Property::ListInt(l)) => l.iter().map(|&i| i as i64).collect(),
+            Some(Property::ListUInt(l)) => l.iter().map(|&i| i as i64).collect(),
+            _ => return Err(mesh_err(format!("face {k} has no integer vertex_indices list"))),
+        };
+        if let Some(&bad) = indices.iter().find(|&&i| i < 0 || i as usize >= n) {
+            return Err(mesh_err(format!("face {k}: vertex index {bad} out of range (0..{n})")));
+        }
+        for j in 2..indices.len() {
+            mesh.triangles.push([indices[0], indices[j - 1], indices[j]].map(|i| i as u32));
+        }
+    }
+    if mesh.triangles.is_empty() {
+        return Err(mesh_err("contains no faces".into()));
+    }
+    if normals.len() == n && normals.iter().all(|v| v.is_finite() && v.length_squared() > 0.0) {
+        mesh.normals = Some(normals.iter().map(|v| v.normalize()).collect());
     }
     Ok(mesh)
 }

@@ -473,3 +473,123 @@ fn grid_keys_transforms_and_names_are_told_in_the_formats_words() {
     );
     assert!(!msg.contains('\u{1b}'), "{msg:?}");
 }
+
+/// A box as a Wavefront OBJ file and as PLY files (binary little- and big-endian with double
+/// positions, float normals and uchar/int index lists, and ASCII with quads): the same mesh, so
+/// the same image, bit for bit (issue 38: the scene collections users bring store meshes as
+/// binary PLY). Then broken PLY files are one-line errors naming the file.
+#[test]
+fn a_ply_mesh_renders_as_the_same_mesh_from_obj() {
+    let dir = temp_dir("ply-mesh");
+    // A unit cube's 8 corners (normals pointing out from the centre) and its 6 faces as quads.
+    let corners: Vec<[f64; 3]> =
+        (0..8).map(|i| [(i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2) as f64]).collect();
+    let normal = |c: [f64; 3]| {
+        let v = c.map(|x| (x - 0.5) as f32);
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| x / l)
+    };
+    let quads: [[u32; 4]; 6] =
+        [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    // OBJ: the quads as the same fans of two triangles.
+    let mut obj = String::new();
+    for c in &corners {
+        obj += &format!("v {} {} {}\n", c[0], c[1], c[2]);
+        let n = normal(*c);
+        obj += &format!("vn {:?} {:?} {:?}\n", n[0], n[1], n[2]);
+    }
+    for q in &quads {
+        for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            obj += &format!("f {0}//{0} {1}//{1} {2}//{2}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+        }
+    }
+    std::fs::write(dir.join("cube.obj"), obj).unwrap();
+    let binary = |big: bool| {
+        let format = if big { "binary_big_endian" } else { "binary_little_endian" };
+        let mut b = format!(
+            "ply\nformat {format} 1.0\ncomment a cube\nelement vertex 8\nproperty double x\n\
+             property double y\nproperty double z\nproperty float nx\nproperty float ny\n\
+             property float nz\nelement face 6\nproperty list uchar int vertex_indices\nend_header\n"
+        )
+        .into_bytes();
+        for c in &corners {
+            for x in c {
+                b.extend(if big { x.to_be_bytes() } else { x.to_le_bytes() });
+            }
+            for x in normal(*c) {
+                b.extend(if big { x.to_be_bytes() } else { x.to_le_bytes() });
+            }
+        }
+        for q in &quads {
+            b.push(4);
+            for i in q {
+                b.extend(if big { (*i as i32).to_be_bytes() } else { (*i as i32).to_le_bytes() });
+            }
+        }
+        b
+    };
+    std::fs::write(dir.join("le.ply"), binary(false)).unwrap();
+    std::fs::write(dir.join("be.ply"), binary(true)).unwrap();
+    let mut ascii = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+         element face 6\nproperty list uchar uint vertex_indices\nend_header\n",
+    );
+    for c in &corners {
+        let n = normal(*c);
+        ascii += &format!("{} {} {} {:?} {:?} {:?}\n", c[0], c[1], c[2], n[0], n[1], n[2]);
+    }
+    for q in &quads {
+        ascii += &format!("4 {} {} {} {}\n", q[0], q[1], q[2], q[3]);
+    }
+    std::fs::write(dir.join("ascii.ply"), ascii).unwrap();
+    let scene = |kind: &str, file: &str| {
+        let text = format!(
+            "{CAMERA}{BODY}\n[[shapes]]\ntype = \"{kind}\"\nfile = \"{file}\"\nmaterial = \"white\"\n\
+             transform = {{ translate = [-0.5, 0.2, -0.5], rotate = [0, 30, 0] }}\n\
+             [render]\niterations = 2\nphotons = 2000\n"
+        );
+        Scene::from_toml(&text, Path::new("cube.toml"), &dir).unwrap()
+    };
+    let image = |s: &Scene| {
+        let stop = std::sync::atomic::AtomicBool::new(false);
+        haze::render(s, &s.settings, &mut haze::progress::Silent, &stop).unwrap()
+    };
+    let want = image(&scene("obj", "cube.obj"));
+    assert!(want.mean() > 0.0);
+    for file in ["le.ply", "be.ply", "ascii.ply"] {
+        let got = image(&scene("ply", file));
+        assert!(got.pixels == want.pixels, "{file}: the image differs from the OBJ's");
+    }
+    // Broken files: one line, naming the file and what is wrong.
+    let cases: [(&str, Vec<u8>, &str); 4] = [
+        ("truncated.ply", binary(false)[..300].to_vec(), "not a readable PLY file"),
+        ("range.ply", ascii_with(&dir, "4 0 1 2 9"), "vertex index 9 out of range"),
+        ("notply.ply", b"solid cube\nendsolid\n".to_vec(), "not a readable PLY file"),
+        ("empty.ply", b"ply\nformat ascii 1.0\nend_header\n".to_vec(), "contains no faces"),
+    ];
+    for (name, bytes, needle) in cases {
+        std::fs::write(dir.join(name), bytes).unwrap();
+        let text = format!(
+            "{CAMERA}{BODY}\n[[shapes]]\ntype = \"ply\"\nfile = \"{name}\"\nmaterial = \"white\"\n"
+        );
+        let err = Scene::from_toml(&text, Path::new("bad.toml"), &dir).err().expect(name);
+        let msg = err.to_string();
+        assert!(msg.contains(name) && msg.contains(needle), "{msg}");
+        assert_eq!(msg.lines().count(), 1, "{msg}");
+    }
+    expect_error(
+        &format!(
+            "{CAMERA}{BODY}\n[[shapes]]\ntype = \"ply\"\nfile = \"nowhere.ply\"\nmaterial = \"white\"\n"
+        ),
+        &["shapes[1].file", "nowhere.ply", "no such file"],
+    );
+}
+
+/// The ASCII cube of the test above with its last face replaced by `face`.
+fn ascii_with(dir: &Path, face: &str) -> Vec<u8> {
+    let text = std::fs::read_to_string(dir.join("ascii.ply")).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    *lines.last_mut().unwrap() = face;
+    (lines.join("\n") + "\n").into_bytes()
+}
