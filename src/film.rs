@@ -251,8 +251,9 @@ impl Film {
     /// variance of each v is taken as 2v²/(N − 1) for N iterations, as for Gaussian values;
     /// pixels independent, a pixel's three channels fully correlated. B is the mean over pixels
     /// and channels of b² − w, b the bias estimate and w its variance (so that it is unbiased for
-    /// the mean squared bias), floored at 0. Over `region`'s pixels only, if given. `None`
-    /// before the second iteration; zero for a black image without noise.
+    /// the mean squared bias), floored at 0. Over `region`'s pixels only, if given, and in any
+    /// case without the 0.1 % of them with the largest variance ([`crate::output::Region::counted`];
+    /// docs/error.md). `None` before the second iteration; zero for a black image without noise.
     pub fn error_estimate(
         &self,
         confidence: f64,
@@ -268,7 +269,9 @@ impl Film {
         let (mut sum, mut v, mut v2, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         let (mut b, mut b2) = (0.0f64, 0.0f64);
         let (w, h) = (self.width, self.height);
-        for i in region.unwrap_or(crate::output::Region::whole(w, h)).indices(w, h) {
+        let pixel_variance = |i: usize| variance[i].iter().map(|&c| c as f64).sum::<f64>();
+        let region = region.unwrap_or(crate::output::Region::whole(w, h));
+        for i in region.counted(w, h, pixel_variance) {
             let (m, var) = (mean[i], variance[i]);
             let (mut pixel, mut pixel_b) = (0.0, 0.0);
             for c in 0..3 {

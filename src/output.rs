@@ -78,6 +78,35 @@ impl Region {
         Region { x0: 0, y0: 0, x1: width, y1: height }
     }
 
+    /// The indices of this region's pixels ([`Self::indices`]) but the [`NOISIEST_SHARE`] of them
+    /// with the largest `variance(pixel)` (none below 1 / [`NOISIEST_SHARE`] pixels; ties by
+    /// index): the pixels that the image's noise figures and its target error count.
+    pub fn counted(
+        self,
+        width: u32,
+        height: u32,
+        variance: impl Fn(usize) -> f64,
+    ) -> impl Iterator<Item = usize> {
+        let mut all: Vec<usize> = self.indices(width, height).collect();
+        let left_out = (all.len() as f64 * NOISIEST_SHARE) as usize;
+        let mut out = vec![false; all.len()];
+        if left_out > 0 {
+            let mut order: Vec<usize> = (0..all.len()).collect();
+            let key = |k: usize| variance(all[k]);
+            // Largest first; NaN (never written) counts as largest.
+            order.select_nth_unstable_by(left_out - 1, |&a, &b| {
+                key(b).partial_cmp(&key(a)).unwrap_or(std::cmp::Ordering::Equal).then(a.cmp(&b))
+            });
+            order[..left_out].iter().for_each(|&k| out[k] = true);
+        }
+        let mut k = 0;
+        all.retain(|_| {
+            k += 1;
+            !out[k - 1]
+        });
+        all.into_iter()
+    }
+
     /// The row-major indices of this region's pixels in a `width` × `height` image (clipped to
     /// it), row by row.
     pub fn indices(self, width: u32, height: u32) -> impl Iterator<Item = usize> {
@@ -204,11 +233,14 @@ impl Image {
     /// The estimated noise of the image relative to its mean, over `region` (or the whole
     /// image): √(mean v) / m, with v each pixel's and channel's estimated variance of the mean
     /// and m the mean value — the relative RMSE the noise alone would give, as `haze converge`
-    /// measures errors. `None` without a variance estimate or on a black image.
+    /// measures errors — over the pixels [`Region::counted`] keeps: the 0.1 % noisiest are left
+    /// out (docs/error.md). `None` without a variance estimate or on a black image.
     pub fn relative_noise(&self, region: Option<Region>) -> Option<f64> {
         let variance = self.variance.as_ref()?;
         let (mut sum, mut var, mut n) = (0.0f64, 0.0f64, 0.0f64);
-        for i in self.region_pixels(region) {
+        let (w, h) = (self.width, self.height);
+        let pixel_variance = |i: usize| variance[i].iter().map(|&c| c as f64).sum::<f64>();
+        for i in region.unwrap_or(Region::whole(w, h)).counted(w, h, pixel_variance) {
             sum += self.pixels[i].iter().map(|&c| c as f64).sum::<f64>();
             var += variance[i].iter().map(|&c| c as f64).sum::<f64>();
             n += 3.0;
@@ -413,4 +445,34 @@ pub fn is_haze_preview(path: &Path) -> bool {
     };
     let info = reader.info();
     info.uncompressed_latin1_text.iter().any(|t| t.keyword == "Software" && t.text == "haze")
+}
+
+/// Share of an image's pixels, the ones with the largest variance, that its noise figure and
+/// its target error leave out ([`Region::counted`]): a light seen directly, or its image through
+/// glass, can hold more variance than every other pixel together, and one such pixel would rule
+/// a mean (docs/error.md).
+pub const NOISIEST_SHARE: f64 = 0.001;
+
+#[cfg(test)]
+mod noisiest_tests {
+    use super::*;
+
+    /// The pixels the noise figures count: all of them below 1,000 pixels; from 1,000 on, all
+    /// but the 0.1 % with the largest variance — exactly those, whatever their order.
+    #[test]
+    fn the_noisiest_thousandth_of_the_pixels_is_left_out() {
+        let (w, h) = (50u32, 40u32);
+        // Pixels 17 and 1,500 are the noisiest; the rest rise slowly with their index.
+        let var = |i: usize| match i {
+            17 => 1e9,
+            1500 => 1e6,
+            _ => i as f64,
+        };
+        let kept: Vec<usize> = Region::whole(w, h).counted(w, h, var).collect();
+        assert_eq!(kept.len(), 1998);
+        assert!(!kept.contains(&17) && !kept.contains(&1500) && kept.contains(&1999));
+        assert!(kept.windows(2).all(|p| p[0] < p[1]), "kept in pixel order");
+        let small = Region { x0: 0, y0: 0, x1: 30, y1: 30 };
+        assert_eq!(small.counted(w, h, var).count(), 900);
+    }
 }
