@@ -186,6 +186,11 @@ pub(crate) fn render_rows(
             return;
         }
         for (x, (px, b)) in row.iter_mut().zip(bias).enumerate() {
+            // Pixel by pixel: in a pathological medium one pixel can take milliseconds, and a
+            // stopped iteration is discarded anyway.
+            if stop.load(Ordering::Relaxed) {
+                return;
+            }
             let e = radiance(x as u32, y as u32);
             (*px, *b) = if e.value.is_finite() && e.bias.is_finite() {
                 (e.value, e.bias)

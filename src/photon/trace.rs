@@ -378,6 +378,10 @@ pub(crate) fn trace_photons(
             let mut local = Photons::default();
             let end = ((c + 1) * CHUNK).min(pass.paths);
             for index in c * CHUNK..end {
+                // Path by path, as pixels are (`integrator::render_rows`).
+                if stop.load(Ordering::Relaxed) {
+                    return None;
+                }
                 trace_path(scene, emitting, p_media, pass, pass.first_path + index, &mut local);
             }
             Some(local)

@@ -509,3 +509,36 @@ fn regex_free_drop_key(text: &str, key: &str, keep: usize) -> String {
         .map(|l| format!("{l}\n"))
         .collect()
 }
+
+/// The case issue 37's fix leaves slow (docs/theory.md): an extinction colour (0, 10⁻³, 1) at
+/// scale 10³⁰, whose thin channels' spectral-tracking walks end only at the step cap, so one
+/// 32×32 iteration takes over a minute. A signal and `-t` must still act within a fraction of a
+/// second: the stop flag is read pixel by pixel and light path by light path (it was read per
+/// row and per chunk of paths: SIGINT took 6.7 s here).
+#[test]
+fn signals_act_within_an_iteration_that_crawls() {
+    let dir = temp_dir("crawl");
+    let medium = "sigma_t = 1\nalbedo = 0.5\nextinction_grid = { grids = \"tint\", scale = 1e30 }";
+    let scene = box_scene(&dir, "zero", &crafted("zero-channel.vdb"), medium);
+    let mut child = haze()
+        .args(["render", scene.to_str().unwrap(), "-o"])
+        .arg(dir.join("a.exr"))
+        .args(["-q", "-j", "2", "-n", "100"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    kill(&child, "-INT");
+    let (status, err) = wait(&mut child, Duration::from_secs(3), "SIGINT in a crawling iteration");
+    assert_eq!(status.code(), Some(130), "{err}");
+    let mut child = haze()
+        .args(["render", scene.to_str().unwrap(), "-o"])
+        .arg(dir.join("b.exr"))
+        .args(["-q", "-j", "2", "-n", "100", "-t", "1s"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (status, err) = wait(&mut child, Duration::from_secs(4), "-t 1s in a crawling iteration");
+    assert_eq!(status.code(), Some(1), "{err}");
+    assert!(err.contains("time limit"), "{err}");
+}
