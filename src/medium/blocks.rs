@@ -128,11 +128,14 @@ impl<T: Copy + PartialEq + Send + Sync> Blocked<T> {
         self.pages[p * PAGE + local(c + self.offset)] = v;
     }
 
-    /// Sets every cell of the block holding cell `c` to `v` (a page it had is left unused).
+    /// Sets every cell of the block holding cell `c` to `v` (a page it had is left unused). A
+    /// tile fills its blocks one after another: they share one uniform value.
     pub(crate) fn fill_block(&mut self, c: IVec3, v: T) {
         let k = self.block_index(c);
-        self.top[k] = UNIFORM | self.uniform.len() as u32;
-        self.uniform.push(v);
+        if self.uniform.last() != Some(&v) {
+            self.uniform.push(v);
+        }
+        self.top[k] = UNIFORM | (self.uniform.len() - 1) as u32;
     }
 
     /// Bytes held: the top level, the uniform values and the pages.

@@ -308,8 +308,7 @@ shape_def!(MeshDef {
     triangles: Vec<[u32; 3]>,
     normals: Option<Vec<[f32; 3]>>,
 });
-shape_def!(ObjDef { file: String });
-shape_def!(PlyDef { file: String });
+shape_def!(MeshFileDef { file: String });
 
 #[derive(Debug)]
 pub enum ShapeDef {
@@ -317,8 +316,8 @@ pub enum ShapeDef {
     Box(BoxDef),
     Sphere(SphereDef),
     Mesh(MeshDef),
-    Obj(ObjDef),
-    Ply(PlyDef),
+    Obj(MeshFileDef),
+    Ply(MeshFileDef),
 }
 
 #[derive(Debug, Deserialize)]

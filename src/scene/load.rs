@@ -372,22 +372,14 @@ fn shape(def: &ShapeDef, base_dir: &Path) -> ShapeDesc {
             &d.interior,
             &d.exterior,
         ),
-        ShapeDef::Obj(d) => (
-            GeometryDesc::Obj(base_dir.join(&d.file)),
-            &d.material,
-            d.emission,
-            &d.transform,
-            &d.interior,
-            &d.exterior,
-        ),
-        ShapeDef::Ply(d) => (
-            GeometryDesc::Ply(base_dir.join(&d.file)),
-            &d.material,
-            d.emission,
-            &d.transform,
-            &d.interior,
-            &d.exterior,
-        ),
+        ShapeDef::Obj(d) | ShapeDef::Ply(d) => {
+            let file = base_dir.join(&d.file);
+            let geometry = match def {
+                ShapeDef::Ply(_) => GeometryDesc::Ply(file),
+                _ => GeometryDesc::Obj(file),
+            };
+            (geometry, &d.material, d.emission, &d.transform, &d.interior, &d.exterior)
+        }
     };
     ShapeDesc {
         geometry,

@@ -186,12 +186,16 @@ pub const MAX_OBJ_BYTES: u64 = 2 << 30;
 /// Loads every object of a Wavefront OBJ file as one triangle mesh. Material libraries
 /// (`mtllib`) are never opened: haze takes materials from the scene file.
 pub(crate) fn load_obj(path: &Path) -> Result<Mesh> {
-    let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
+    load_mesh(path, "an OBJ file", obj_from_bytes)
+}
+
+/// Reads the mesh file `path` (`what` it is, for messages; at most [`MAX_OBJ_BYTES`]) and parses
+/// its bytes with `parse`.
+fn load_mesh(path: &Path, what: &str, parse: fn(&[u8], &Path) -> Result<Mesh>) -> Result<Mesh> {
     if !path.exists() {
-        return Err(mesh_err("no such file".into()));
+        return Err(Error::Mesh { path: path.to_path_buf(), message: "no such file".into() });
     }
-    let bytes = super::read_bounded(path, MAX_OBJ_BYTES, "an OBJ file")?;
-    obj_from_bytes(&bytes, path)
+    parse(&super::read_bounded(path, MAX_OBJ_BYTES, what)?, path)
 }
 
 /// Parses the bytes of a Wavefront OBJ file (`path` names it in messages) as one triangle mesh.
@@ -238,12 +242,7 @@ pub(crate) fn obj_from_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
 
 /// Loads the mesh of a PLY file, ASCII or binary ([`ply_from_bytes`]).
 pub(crate) fn load_ply(path: &Path) -> Result<Mesh> {
-    let mesh_err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
-    if !path.exists() {
-        return Err(mesh_err("no such file".into()));
-    }
-    let bytes = super::read_bounded(path, MAX_OBJ_BYTES, "a PLY file")?;
-    ply_from_bytes(&bytes, path)
+    load_mesh(path, "a PLY file", ply_from_bytes)
 }
 
 /// Parses the bytes of a PLY file (`path` names it in messages) through ply-rs-bw: the `vertex`
