@@ -21,13 +21,16 @@ use super::analytic::{
 use crate::error::Result;
 use crate::progress::Silent;
 use crate::scene::Scene;
-use crate::settings::{Integrator, VolumeEstimate};
+use crate::settings::{Integrator, Kernel, VolumeEstimate};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 /// Significance of each case's t-test.
 pub const SIGNIFICANCE: f64 = 1e-3;
+
+/// z₀.₉: the power of the detectable-bias figures is 0.9.
+pub const Z_POWER: f64 = 1.2816;
 
 /// How thoroughly to validate.
 #[derive(Clone, Copy, Debug)]
@@ -58,6 +61,11 @@ pub struct Row {
     pub method: &'static str,
     /// Reference value.
     pub reference: f64,
+    /// The value the method's estimate has in expectation: the reference, plus for a kernel
+    /// estimate whose expectation is known exactly (by quadrature of the kernel against the
+    /// case's known source function, at every iteration's radius) that exact kernel bias. The
+    /// t-test is against this value.
+    pub expected: f64,
     /// Mean over seeds.
     pub mean: f64,
     /// Standard error of the mean.
@@ -75,12 +83,24 @@ pub struct Row {
     /// quantile for its iterations — covers the measured error; and the seeds with a bound
     /// (images with noise: the deterministic cases have none).
     pub covered: Option<(u32, u32)>,
+    /// For the power cases ([`run_power`]): the relative bias the row would detect at
+    /// significance [`SIGNIFICANCE`] with power 0.9 (see [`Row::detectable`]), and the most the
+    /// case promises.
+    pub target: Option<f64>,
 }
 
 impl Row {
+    /// The smallest bias, relative to the reference, that this row detects at significance
+    /// [`SIGNIFICANCE`] with power 0.9: a mean that far from `expected` fails the t-test with
+    /// probability 0.9 (normal approximation, the standard error taken as measured:
+    /// (t crit + z₀.₉) × s.e.), plus the bias bound, within which a row passes regardless.
+    pub fn detectable(&self) -> f64 {
+        (self.bias + (self.t_crit + Z_POWER) * self.se) / self.reference.abs()
+    }
+
     /// (mean − reference) / se; `None` for a deterministic result (se = 0).
     pub fn z(&self) -> Option<f64> {
-        (self.se > 0.0).then(|| (self.mean - self.reference) / self.se)
+        (self.se > 0.0).then(|| (self.mean - self.expected) / self.se)
     }
 
     /// Relative error of the mean.
@@ -90,7 +110,7 @@ impl Row {
 
     /// What the row was held to, and whether it met it.
     pub fn verdict(&self) -> Verdict {
-        let diff = (self.mean - self.reference).abs();
+        let diff = (self.mean - self.expected).abs();
         if diff <= self.t_crit * self.se {
             Verdict::Pass
         } else if diff <= self.bias {
@@ -148,6 +168,28 @@ struct Case {
     volume_radius: [f64; 2],
     /// Light paths per iteration, as a multiple of the effort's.
     photons_scale: u64,
+    /// The exact expected value of a kernel estimate at radius r, where the case knows it
+    /// ([`Row::expected`]); `None` for an estimate it does not know it for.
+    expected: Option<Expectation>,
+    /// For a power case ([`run_power`]): its own effort, methods and promised detectable bias.
+    power: Option<Power>,
+}
+
+/// The exact expectation of a kernel estimate (beam or point) with a given kernel at radius r,
+/// or `None` where the case has none for that estimate.
+type Expectation = Box<dyn Fn(VolumeEstimate, Kernel, f64) -> Option<f64>>;
+
+/// How a power case runs: at its own effort, with the methods named, and the relative bias it
+/// must be able to detect ([`Row::detectable`]).
+#[derive(Clone, Copy, Debug)]
+struct Power {
+    /// The photon methods' effort.
+    effort: Effort,
+    /// Samples per pixel of the path tracer and of the hybrid in single scattering (which renders
+    /// next-event estimation alone: its photon pass then traces 1,000 paths, which it discards).
+    path_spp: u64,
+    methods: &'static [&'static str],
+    target: f64,
 }
 
 impl Case {
@@ -296,6 +338,8 @@ fn furnace_case(name: &str, medium: &'static str, fog: &str, sigma: f64) -> Case
         max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
+        expected: None,
+        power: None,
     }
 }
 
@@ -340,6 +384,8 @@ fn beer_lambert_cases(media_dir: &Path) -> Vec<Case> {
         max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
+        expected: None,
+        power: None,
     });
     // Beer–Lambert through the gradient grid: density x + 1/64 along x (see media/README.md),
     // viewed along −x through x ∈ [0.1, 0.9], y, z ∈ [0.1, 0.4].
@@ -360,6 +406,8 @@ fn beer_lambert_cases(media_dir: &Path) -> Vec<Case> {
         max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
+        expected: None,
+        power: None,
     });
     out.push(extinction_grid_case(media_dir));
     out
@@ -399,6 +447,8 @@ fn extinction_grid_case(media_dir: &Path) -> Case {
         max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
+        expected: None,
+        power: None,
     }
 }
 
@@ -442,6 +492,8 @@ fn half_space_cases() -> Vec<Case> {
             max_bounces: 10_000,
             volume_radius: [0.04, 0.04],
             photons_scale: 1,
+            expected: None,
+            power: None,
         });
     }
     out
@@ -495,6 +547,8 @@ fn grazing_single_scattering_cases() -> Vec<Case> {
             max_bounces: 1,
             volume_radius: [0.002, 0.05],
             photons_scale: 10,
+            expected: None,
+            power: None,
         });
     }
     out
@@ -538,6 +592,8 @@ fn slab_single_scattering_case() -> Case {
         max_bounces: 1,
         volume_radius: [0.02, 0.04],
         photons_scale: 1,
+        expected: None,
+        power: None,
     }
 }
 
@@ -572,6 +628,8 @@ fn point_source_cases() -> Vec<Case> {
             max_bounces,
             volume_radius: [0.05, 0.05],
             photons_scale: 1,
+            expected: None,
+            power: None,
         });
     }
     out
@@ -601,6 +659,8 @@ fn emission_cases(media_dir: &Path) -> Vec<Case> {
         max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
+        expected: None,
+        power: None,
     });
     // The same through the gradient grid (density x + 1/64 along x): L_e (1 − e^{−τ}) with τ
     // the optical depth along the ray.
@@ -622,6 +682,8 @@ fn emission_cases(media_dir: &Path) -> Vec<Case> {
         max_bounces: 10_000,
         volume_radius: [0.02, 0.02],
         photons_scale: 1,
+        expected: None,
+        power: None,
     });
     // A furnace with emission: walls emitting L_e around a medium that absorbs (σ_a 0.5) and
     // emits the same L_e, and scatters (σ_s 1.5, g 0.5): the radiance is L_e everywhere, as in
@@ -649,42 +711,425 @@ fn emission_cases(media_dir: &Path) -> Vec<Case> {
     out
 }
 
+/// A slab of homogeneous medium (σ_t 1, albedo ω, Henyey–Greenstein g) of optical thickness
+/// `depth` below the plane y = 0, made laterally infinite by four inward-facing perfect mirrors
+/// (reflectance 1) at |x| = |z| = 2: under collimated light falling straight down, the mirror
+/// images tile the plane with identical slabs, so every path of the infinite slab has its image
+/// in the box and the light field is exactly that of the infinite slab — with no lateral
+/// truncation to bound, however far light diffuses sideways. Top and bottom faces pass light
+/// through (black below). An orthographic camera looks straight down at the central
+/// `patch` × `patch` square, which keeps every kernel (radius ≤ 0.1) clear of the mirrors.
+fn mirrored_slab_toml(omega: f64, depth: f64, g: f64, irradiance: f64, resolution: u32) -> String {
+    let patch = 2.0;
+    let mut s = format!(
+        "[camera]\ntype = \"orthographic\"\nposition = [0, 5, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, -1]\nheight = {patch}\nresolution = [{resolution}, {resolution}]\n\n[media.slab]\ntype = \"homogeneous\"\nalbedo = {omega}\nsigma_t = 1\ng = {g}\n\n[materials.air]\ntype = \"interface\"\n\n[materials.mirror]\ntype = \"mirror\"\nreflectance = 1\n\n[[lights]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = {irradiance}\n\n[[shapes]]\ntype = \"rectangle\"\nsize = [4, 4]\nmaterial = \"air\"\ninterior = \"slab\"\ntransform = {{ rotate = [-90, 0, 0] }}\n\n[[shapes]]\ntype = \"rectangle\"\nsize = [4, 4]\nmaterial = \"air\"\nexterior = \"slab\"\ntransform = {{ rotate = [-90, 0, 0], translate = [0, {}, 0] }}\n",
+        -depth
+    );
+    for (rotate, at) in [
+        ("[0, 0, 0]", "[0, Y, -2]"),
+        ("[0, 180, 0]", "[0, Y, 2]"),
+        ("[0, 90, 0]", "[-2, Y, 0]"),
+        ("[0, -90, 0]", "[2, Y, 0]"),
+    ] {
+        let at = at.replace('Y', &(-depth / 2.0).to_string());
+        let _ = write!(
+            s,
+            "\n[[shapes]]\ntype = \"rectangle\"\nsize = [4, {depth}]\nmaterial = \"mirror\"\nexterior = \"slab\"\ntransform = {{ rotate = {rotate}, translate = {at} }}\n"
+        );
+    }
+    s
+}
+
+/// Gauss–Legendre nodes and weights on [−1, 1], by Newton's method on Pₙ.
+fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+    (1..=n)
+        .map(|i| {
+            let mut x = (std::f64::consts::PI * (i as f64 - 0.25) / (n as f64 + 0.5)).cos();
+            let legendre = |x: f64| {
+                let (mut p0, mut p1) = (1.0, x);
+                for k in 2..=n {
+                    let k = k as f64;
+                    (p0, p1) = (p1, ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k);
+                }
+                // Pₙ and its derivative.
+                (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
+            };
+            for _ in 0..100 {
+                let (p, dp) = legendre(x);
+                let dx = p / dp;
+                x -= dx;
+                if dx.abs() < 1e-15 {
+                    break;
+                }
+            }
+            let (_, dp) = legendre(x);
+            (x, 2.0 / ((1.0 - x * x) * dp * dp))
+        })
+        .collect()
+}
+
+/// ∫ f over [a, b] by 24-point Gauss–Legendre on `panels` equal panels (0 if b ≤ a).
+fn integrate(f: impl Fn(f64) -> f64, a: f64, b: f64, panels: usize) -> f64 {
+    if b <= a {
+        return 0.0;
+    }
+    let rule = gauss_legendre(24);
+    let h = (b - a) / panels as f64;
+    (0..panels)
+        .map(|k| {
+            let (lo, half) = (a + h * k as f64, h / 2.0);
+            rule.iter().map(|&(x, w)| w * half * f(lo + half * (x + 1.0))).sum::<f64>()
+        })
+        .sum()
+}
+
+/// The density of one coordinate x ∈ [−1, 1] of a point drawn from `kernel` in dimension `dim`
+/// (2: the beam estimate's disc, 3: the point estimate's ball) of unit radius: the kernel
+/// integrated over the chord (2-D) or the disc (3-D) at x.
+fn kernel_marginal(kernel: Kernel, dim: u32, x: f64) -> f64 {
+    let h = (1.0 - x * x).max(0.0).sqrt();
+    let k = |u2: f64| f64::from(kernel.eval(u2 as f32, dim));
+    if dim == 2 {
+        2.0 * integrate(|v| k(x * x + v * v), 0.0, h, 2)
+    } else {
+        2.0 * std::f64::consts::PI * integrate(|p| k(x * x + p * p) * p, 0.0, h, 2)
+    }
+}
+
+/// E[e^{−c X} 1(lo ≤ X ≤ hi)] for X one coordinate of a point drawn from the unit kernel.
+fn kernel_moment(kernel: Kernel, dim: u32, c: f64, lo: f64, hi: f64) -> f64 {
+    integrate(|x| kernel_marginal(kernel, dim, x) * (-c * x).exp(), lo.max(-1.0), hi.min(1.0), 8)
+}
+
+/// The exact expectation of a kernel estimate of single scattering in a half-space (σ_t 1)
+/// under collimated light falling straight down (source A e^{−z} at depth z ≥ 0, none above),
+/// on an eye ray entering at cosine μ: ∫₀^∞ e^{−t} E[A e^{−(μt + ρX)} 1(μt + ρX ≥ 0)] dt, X one
+/// coordinate of the kernel's disc (beam, ρ = r sin θ: the disc is perpendicular to the ray, and
+/// the depth axis makes angle θ with it, so a disc point at X lies ρX deeper) or ball (point
+/// estimate, ρ = r). Photons exist only below the surface: near it the kernel loses the part
+/// above (X < −μt/ρ, for t < ρ/μ), and everywhere it averages the exponential (a factor
+/// E[e^{−ρX}] ≥ 1).
+fn half_space_single_expectation(kernel: Kernel, dim: u32, a: f64, mu: f64, rho: f64) -> f64 {
+    let tb = rho / mu;
+    let near = integrate(
+        |t| (-(1.0 + mu) * t).exp() * kernel_moment(kernel, dim, rho, -mu * t / rho, 1.0),
+        0.0,
+        tb,
+        16,
+    );
+    let far = kernel_moment(kernel, dim, rho, -1.0, 1.0) * (-(1.0 + mu) * tb).exp() / (1.0 + mu);
+    a * (near + far)
+}
+
+/// The power cases: the analytic cases that see the errors this project has had, each at the
+/// effort that detects a small bias ([`run_power`]; docs/validation.md, "What CI re-runs").
+fn power_cases() -> Vec<Case> {
+    // The point estimate's noise comes as much from where its eye paths collide (one collision a
+    // pixel and iteration) as from the photons, the beam estimate's from the photons: each
+    // single-scattering case runs twice, with the pixels and the photons each method needs.
+    let (beam, point) =
+        (&["hybrid (next-event only)", "photons/beam", "path"][..], &["photons/point"][..]);
+    let mut out = vec![
+        slab_normal_power_case(64, Effort { seeds: 16, iterations: 8, photons: 200_000 }, beam),
+        slab_normal_power_case(256, Effort { seeds: 32, iterations: 8, photons: 60_000 }, point),
+        grazing_power_case(64, Effort { seeds: 16, iterations: 8, photons: 700_000 }, beam),
+        grazing_power_case(128, Effort { seeds: 32, iterations: 8, photons: 250_000 }, point),
+    ];
+    out.extend(mirrored_power_cases());
+    out
+}
+
+/// Single scattering in a slab seen straight down (τ 1, ω 0.8, g 0.3, light straight down,
+/// μ = 1): L₁(1) = E ω f_p(−1) (1 − e^{−2τ}) / 2. Seen along the normal, the beam estimate's
+/// disc lies in a plane of constant depth, where the source is constant: its expectation is L₁
+/// exactly, at any radius — so a beam estimate that is off by any factor shows as such. The point
+/// estimate's ball averages the source e^{−z} over depth and loses the parts above the top face
+/// and below the bottom one; its expectation ∫₀^τ e^{−z} E[S(z + rX)] dz is integrated here.
+///
+/// Smallest detectable bias at significance 10⁻³, power 0.9 (measured on 2 cores, see
+/// docs/validation.md): photons/beam ≈ 0.1 %, the others less; promised ≤ 0.2 %.
+fn slab_normal_power_case(
+    resolution: u32,
+    effort: Effort,
+    methods: &'static [&'static str],
+) -> Case {
+    let (omega, tau, g, irradiance) = (0.8f64, 1.0f64, 0.3f64, 3.0f64);
+    // Henyey–Greenstein at cos θ = −1 (light travels down, leaves straight up).
+    let phase = (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g).powi(3));
+    let a = irradiance * omega * phase;
+    let reference = irradiance * slab_single_scattering(omega, tau, 1.0, phase);
+    Case {
+        name: format!(
+            "slab single scattering, normal view (τ {tau}, ω {omega}, g {g}, μ 1), {resolution}²"
+        ),
+        medium: "homogeneous",
+        toml: half_space_toml(HalfSpaceView {
+            omega,
+            mu: 1.0,
+            distance: 20.0,
+            patch: 16.0,
+            // Single scattering under light falling straight down, seen straight down, needs
+            // the medium under the patch alone (and the kernels' reach beyond it): every photon
+            // outside that would be traced for nothing.
+            block: ([-8.4, 8.4], tau, [-8.4, 8.4]),
+            irradiance,
+            resolution,
+            g,
+        }),
+        reference,
+        bias: Box::new(|_, _| 0.0),
+        setup_bias: offset_bias(reference, 8.4),
+        max_bounces: 1,
+        // Large radii, for small noise: the beam's expectation is exact at any radius, and the
+        // point estimate's is integrated at each.
+        volume_radius: [0.3, 0.25],
+        photons_scale: 1,
+        expected: Some(Box::new(move |estimate, kernel, r| match estimate {
+            VolumeEstimate::Beam => Some(reference),
+            VolumeEstimate::Point => {
+                let inner =
+                    |z: f64| (-2.0 * z).exp() * kernel_moment(kernel, 3, r, -z / r, (tau - z) / r);
+                let (r, tau) = (r.min(tau / 2.0), tau);
+                Some(
+                    a * (integrate(inner, 0.0, r, 8)
+                        + integrate(inner, r, tau - r, 16)
+                        + integrate(inner, tau - r, tau, 8)),
+                )
+            }
+        })),
+        power: Some(Power { effort, path_spp: 32, methods, target: 2e-3 }),
+    }
+}
+
+/// The grazing half-space in single scattering (ω 0.8, μ 0.3, the block of the quick case) at a
+/// working beam radius, 0.02, with the beam and point estimates' exact expectations
+/// ([`half_space_single_expectation`]): their boundary loss and smoothing are integrated, not
+/// bounded, so the row holds the estimate to its own expectation to within the noise.
+///
+/// Smallest detectable bias at significance 10⁻³, power 0.9: promised ≤ 0.2 %.
+fn grazing_power_case(resolution: u32, effort: Effort, methods: &'static [&'static str]) -> Case {
+    let (omega, mu, irradiance) = (0.8f64, 0.3f64, 3.0f64);
+    let phase = 1.0 / (4.0 * std::f64::consts::PI);
+    let a = irradiance * omega * phase;
+    let reference = irradiance * slab_single_scattering(omega, f64::INFINITY, mu, phase);
+    let exit = (8.0 / (1.0 - mu * mu).sqrt() * mu).min(3.0);
+    let missing = (-exit * (1.0 + 1.0 / mu)).exp();
+    let sin = (1.0 - mu * mu).sqrt();
+    Case {
+        name: format!(
+            "half-space ω {omega}, μ {mu}, single scattering, working radius, {resolution}²"
+        ),
+        medium: "homogeneous",
+        toml: half_space_toml(HalfSpaceView {
+            omega,
+            mu,
+            distance: 20.0,
+            patch: 1.0 / mu,
+            block: ([-0.5 / mu - 8.0, 0.5 / mu + 0.1], 3.0, [-0.6, 0.6]),
+            irradiance,
+            resolution,
+            g: 0.0,
+        }),
+        reference,
+        bias: Box::new(|_, _| 0.0),
+        setup_bias: reference * missing + offset_bias(reference, 0.5 / mu),
+        max_bounces: 1,
+        volume_radius: [0.03, 0.15],
+        photons_scale: 1,
+        expected: Some(Box::new(move |estimate, kernel, r| {
+            Some(match estimate {
+                VolumeEstimate::Beam => half_space_single_expectation(kernel, 2, a, mu, r * sin),
+                VolumeEstimate::Point => half_space_single_expectation(kernel, 3, a, mu, r),
+            })
+        })),
+        power: Some(Power { effort, path_spp: 32, methods, target: 2e-3 }),
+    }
+}
+
+/// Multiple scattering at high albedo, in mirrored slabs ([`mirrored_slab_toml`]) seen straight
+/// down, where the beam estimate's expectation is exact (its disc lies in a plane of constant
+/// depth, and the light field is laterally uniform):
+///
+/// - the half-space at ω 0.99 (depth 48: 8.3 diffusion lengths, whose bottom lets through less
+///   than 10⁻⁶ of the reflected light), against Chandrasekhar's H-function;
+/// - a dense slab, τ 20, ω 0.999 — 400 scattering events on a typical path through it — against
+///   the adding-doubling solution of tests/adding_doubling.py (0.294091922 per unit irradiance,
+///   converged to 10⁻⁹ in the number of ordinates; the script checks itself against the
+///   H-function's half-space).
+///
+/// Smallest detectable bias at significance 10⁻³, power 0.9: promised ≤ 1 % for both.
+fn mirrored_power_cases() -> Vec<Case> {
+    let irradiance = 3.0;
+    let mut out = Vec::new();
+    let omega = 0.99;
+    if let Some(h) = HFunction::new(omega) {
+        let reference = irradiance * half_space_reflectance(&h, 1.0);
+        out.push(Case {
+            name: format!("half-space ω {omega}, μ 1, mirrored"),
+            medium: "homogeneous",
+            toml: mirrored_slab_toml(omega, 48.0, 0.0, irradiance, 16),
+            reference,
+            bias: Box::new(|_, _| 0.0),
+            // The bottom at depth 48: light reaching it, and coming back up, is ≤ e^{−2·48/L_D}
+            // of the reflected light (L_D = 1/√(3(1 − ω)) = 5.8).
+            setup_bias: reference * (-2.0 * 48.0 * (3.0 * (1.0 - omega)).sqrt()).exp()
+                + offset_bias(reference, 2.0),
+            max_bounces: 10_000,
+            volume_radius: [0.1, 0.1],
+            photons_scale: 1,
+            expected: Some(Box::new(move |estimate, _, _| {
+                (estimate == VolumeEstimate::Beam).then_some(reference)
+            })),
+            power: Some(Power {
+                effort: Effort { seeds: 16, iterations: 8, photons: 30_000 },
+                path_spp: 256,
+                methods: &["hybrid/beam", "photons/beam", "path"],
+                target: 1e-2,
+            }),
+        });
+    }
+    // tests/adding_doubling.py 20 0.999: radiance reflected at μ = 1 per unit irradiance at
+    // normal incidence (8, 16, 24, 32 ordinates: 0.294092363, 0.294091930, 0.294091923,
+    // 0.294091922).
+    let reference = irradiance * 0.294_091_922;
+    out.push(Case {
+        name: "dense slab (τ 20, ω 0.999), μ 1, mirrored".into(),
+        medium: "homogeneous",
+        toml: mirrored_slab_toml(0.999, 20.0, 0.0, irradiance, 16),
+        reference,
+        bias: Box::new(|_, _| 0.0),
+        // Paths of more than 10,000 events are cut: at ω 0.999 a path survives that many with
+        // probability ≤ 0.999^10000 = 4.5·10⁻⁵, an upper bound on the light lost.
+        setup_bias: reference * 0.999f64.powi(10_000) + offset_bias(reference, 2.0),
+        max_bounces: 10_000,
+        volume_radius: [0.1, 0.1],
+        photons_scale: 1,
+        expected: Some(Box::new(move |estimate, _, _| {
+            (estimate == VolumeEstimate::Beam).then_some(reference)
+        })),
+        power: Some(Power {
+            effort: Effort { seeds: 16, iterations: 8, photons: 16_000 },
+            path_spp: 256,
+            methods: &["hybrid/beam", "photons/beam", "path"],
+            target: 1e-2,
+        }),
+    });
+    out
+}
+
+/// The methods every case is rendered with: (name, integrator, volume estimate).
+type Method = (&'static str, Integrator, VolumeEstimate);
+
+const METHODS: [Method; 5] = [
+    ("hybrid/beam", Integrator::Hybrid, VolumeEstimate::Beam),
+    ("hybrid/point", Integrator::Hybrid, VolumeEstimate::Point),
+    ("photons/beam", Integrator::PhotonMapping, VolumeEstimate::Beam),
+    ("photons/point", Integrator::PhotonMapping, VolumeEstimate::Point),
+    ("path", Integrator::Path, VolumeEstimate::Beam),
+];
+
+/// With paths of one scattering event the hybrid leaves nothing to its photons (it stores none
+/// that have not scattered, and gathers none at the last event): its volume estimate plays no
+/// part, and it renders next-event estimation alone. Such cases run it once, under this name,
+/// and not as "hybrid/beam" and "hybrid/point", which would promise estimates the row does not
+/// exercise.
+const HYBRID_SINGLE: Method =
+    ("hybrid (next-event only)", Integrator::Hybrid, VolumeEstimate::Beam);
+
+/// The methods a case is rendered with.
+fn methods(case: &Case) -> Vec<Method> {
+    let all: Vec<Method> = if case.max_bounces == 1 {
+        std::iter::once(HYBRID_SINGLE).chain(METHODS[2..].iter().copied()).collect()
+    } else {
+        METHODS.to_vec()
+    };
+    match &case.power {
+        Some(p) => all.into_iter().filter(|m| p.methods.contains(&m.0)).collect(),
+        None => all,
+    }
+}
+
 /// Runs every case whose name contains `filter` (every case if `None`) with every method;
 /// `progress(done, total)` after each render.
 pub fn run(
     media_dir: &Path,
     effort: Effort,
     filter: Option<&str>,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Row>> {
-    let methods: [(&'static str, Integrator, VolumeEstimate); 5] = [
-        ("hybrid/beam", Integrator::Hybrid, VolumeEstimate::Beam),
-        ("hybrid/point", Integrator::Hybrid, VolumeEstimate::Point),
-        ("photons/beam", Integrator::PhotonMapping, VolumeEstimate::Beam),
-        ("photons/point", Integrator::PhotonMapping, VolumeEstimate::Point),
-        ("path", Integrator::Path, VolumeEstimate::Beam),
-    ];
     let media_dir = &std::fs::canonicalize(media_dir)
         .map_err(|error| crate::Error::Io { path: media_dir.to_path_buf(), error })?;
     let mut cases = cases(media_dir);
     cases.retain(|c| filter.is_none_or(|f| c.name.contains(f)));
-    let total = cases.len() * methods.len() * effort.seeds as usize;
+    run_cases(media_dir, &cases, |_| effort, progress)
+}
+
+/// Runs the power cases (`power_cases`) whose name contains `filter`, each at its own effort
+/// and with its own methods: the analytic cases that see the errors this project has had, at
+/// the effort that detects a bias of the size stated for each ([`Row::detectable`]). The test
+/// suite runs them all (tests/suite/validation.rs); `haze validate --power` prints the table.
+pub fn run_power(
+    media_dir: &Path,
+    filter: Option<&str>,
+    progress: impl FnMut(usize, usize),
+) -> Result<Vec<Row>> {
+    let media_dir = &std::fs::canonicalize(media_dir)
+        .map_err(|error| crate::Error::Io { path: media_dir.to_path_buf(), error })?;
+    let mut cases = power_cases();
+    cases.retain(|c| filter.is_none_or(|f| c.name.contains(f)));
+    run_cases(media_dir, &cases, |c| c.power.map_or(Effort::QUICK, |p| p.effort), progress)
+}
+
+fn run_cases(
+    media_dir: &Path,
+    cases: &[Case],
+    effort_of: impl Fn(&Case) -> Effort,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Vec<Row>> {
+    let total: usize = cases.iter().map(|c| methods(c).len() * effort_of(c).seeds as usize).sum();
     let mut done = 0;
     let mut rows = Vec::new();
-    for case in &cases {
+    for case in cases {
         let scene =
             Scene::from_toml(&case.toml, &PathBuf::from(format!("<{}>", case.name)), media_dir)?;
-        for (method, integrator, estimate) in methods {
+        for (method, integrator, estimate) in methods(case) {
+            let mut effort = effort_of(case);
+            let next_event = integrator == Integrator::Path || method == HYBRID_SINGLE.0;
+            if let (Some(p), true) = (case.power, next_event) {
+                effort.iterations = p.path_spp;
+                if integrator == Integrator::Hybrid {
+                    effort.photons = 1000 / case.photons_scale.max(1);
+                }
+            }
             let (mut xs, mut stated, mut covered) = (Vec::new(), Vec::new(), (0u32, 0u32));
+            let mut settings = scene.settings.clone();
+            settings.iterations = Some(effort.iterations);
+            settings.time_limit = None;
+            settings.photons = effort.photons * case.photons_scale;
+            settings.max_bounces = case.max_bounces;
+            settings.integrator = integrator;
+            settings.volume_estimate = estimate;
+            settings.volume_radius = Some(case.radius(estimate));
+            // The exact expectation of a kernel estimate: the mean over the iterations of its
+            // expectation at each iteration's radius (the image is the mean of the iterations).
+            let kernel = (!next_event).then_some(case.expected.as_ref()).flatten().and_then(|f| {
+                let n = effort.iterations;
+                let r1 = case.radius(estimate);
+                let (alpha, dim) = (settings.volume_alpha, settings.volume_dimension);
+                (1..=n)
+                    .map(|i| {
+                        f(
+                            estimate,
+                            settings.kernel,
+                            crate::estimate::radius::radius(i, r1, alpha, dim),
+                        )
+                    })
+                    .sum::<Option<f64>>()
+                    .map(|sum| sum / n as f64)
+            });
+            let expected = kernel.unwrap_or(case.reference);
             for seed in 0..effort.seeds {
-                let mut s = scene.settings.clone();
-                s.iterations = Some(effort.iterations);
-                s.time_limit = None;
-                s.photons = effort.photons * case.photons_scale;
-                s.max_bounces = case.max_bounces;
-                s.integrator = integrator;
-                s.volume_estimate = estimate;
-                s.volume_radius = Some(case.radius(estimate));
+                let mut s = settings.clone();
                 s.seed = 1000 + seed;
                 let image = crate::render(&scene, &s, &mut Silent, &AtomicBool::new(false))?;
                 let m = image.mean();
@@ -703,17 +1148,18 @@ pub fn run(
             let mean = xs.iter().sum::<f64>() / n;
             let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
             let bias = case.setup_bias
-                + match integrator {
-                    Integrator::Path => 0.0,
-                    Integrator::PhotonMapping | Integrator::Hybrid => {
-                        (case.bias)(estimate, case.radius(estimate))
-                    }
+                + match (integrator, kernel) {
+                    _ if next_event => 0.0,
+                    // Known exactly: only the quadrature's error remains (well below 10⁻⁶).
+                    (_, Some(e)) => 1e-6 * e.abs(),
+                    _ => (case.bias)(estimate, case.radius(estimate)),
                 };
             rows.push(Row {
                 case: case.name.clone(),
                 medium: case.medium,
                 method,
                 reference: case.reference,
+                expected,
                 mean,
                 se: (var / n).sqrt(),
                 bias,
@@ -721,6 +1167,7 @@ pub fn run(
                 stated_bias: (!stated.is_empty())
                     .then(|| stated.iter().sum::<f64>() / stated.len() as f64),
                 covered: (covered.1 > 0).then_some(covered),
+                target: case.power.map(|p| p.target),
             });
         }
     }
@@ -771,16 +1218,17 @@ pub fn summary(rows: &[Row]) -> String {
 /// The table as Markdown.
 pub fn markdown(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| case | medium | method | reference | mean ± s.e. | z | rel. error | bias bound | t crit | result | stated bias | own bound covers |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| case | medium | method | reference | expected | mean ± s.e. | z | rel. error | bias bound | t crit | result | detectable bias | stated bias | own bound covers |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.6} | {:.6} ± {:.6} | {} | {:+.3} % | {:.2e} | {:.2} | {} | {} | {} |",
+            "| {} | {} | {} | {:.6} | {} | {:.6} ± {:.6} | {} | {:+.3} % | {:.2e} | {:.2} | {} | {} | {} | {} |",
             r.case,
             r.medium,
             r.method,
             r.reference,
+            if r.expected == r.reference { "=".to_string() } else { format!("{:.6}", r.expected) },
             r.mean,
             r.se,
             r.z().map_or("—".to_string(), |z| format!("{z:+.2}")),
@@ -788,6 +1236,10 @@ pub fn markdown(rows: &[Row]) -> String {
             r.bias,
             r.t_crit,
             r.verdict().label(),
+            match r.target {
+                Some(t) => format!("{:.3} % (≤ {} %)", 100.0 * r.detectable(), 100.0 * t),
+                None => format!("{:.3} %", 100.0 * r.detectable()),
+            },
             r.stated_bias
                 .map_or("—".to_string(), |b| format!("{:+.3} %", 100.0 * b / r.reference)),
             r.covered.map_or("—".to_string(), |(k, n)| format!("{k}/{n}")),
@@ -804,6 +1256,7 @@ pub fn csv(rows: &[Row]) -> String {
         "medium",
         "method",
         "reference",
+        "expected",
         "mean",
         "standard_error",
         "z",
@@ -814,6 +1267,8 @@ pub fn csv(rows: &[Row]) -> String {
         "verdict",
         "stated_bias",
         "seeds_covered",
+        "detectable_bias",
+        "target",
     ]);
     for r in rows {
         let _ = w.write_record([
@@ -821,6 +1276,7 @@ pub fn csv(rows: &[Row]) -> String {
             r.medium.to_string(),
             r.method.to_string(),
             r.reference.to_string(),
+            r.expected.to_string(),
             r.mean.to_string(),
             r.se.to_string(),
             r.z().map_or(String::new(), |z| z.to_string()),
@@ -831,6 +1287,8 @@ pub fn csv(rows: &[Row]) -> String {
             format!("{:?}", r.verdict()),
             r.stated_bias.map_or(String::new(), |b| b.to_string()),
             r.covered.map_or(String::new(), |(k, _)| k.to_string()),
+            r.detectable().to_string(),
+            r.target.map_or(String::new(), |t| t.to_string()),
         ]);
     }
     String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
@@ -854,12 +1312,14 @@ mod tests {
             medium: "homogeneous",
             method: "photons/point",
             reference: 1.0,
+            expected: 1.0,
             mean,
             se,
             bias,
             t_crit: 5.41,
             stated_bias: None,
             covered: None,
+            target: None,
         }
     }
 

@@ -14,6 +14,10 @@ pub(crate) struct ValidateArgs {
     /// A short run (fewer seeds, iterations and photons).
     #[arg(long)]
     quick: bool,
+    /// The power cases instead: single scattering, the albedo-0.99 half-space and a dense slab,
+    /// each at the effort that detects a small bias (what CI runs; docs/validation.md).
+    #[arg(long)]
+    power: bool,
     /// Also write the table as Markdown to this file.
     #[arg(long, value_name = "FILE")]
     markdown: Option<PathBuf>,
@@ -190,6 +194,9 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
             args.media.display()
         );
     }
+    if args.power && args.quick {
+        bail!("--power and --quick: the power cases run at their own effort; give one of them");
+    }
     let effort = if args.quick { Effort::QUICK } else { Effort::FULL };
     let pool = thread_pool(args.threads)?;
     let bar = ProgressBar::new(0);
@@ -201,7 +208,7 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
     let start = Instant::now();
     let log = crate::LogLines::new(false);
     let rows = pool.install(|| {
-        validate::run(&args.media, effort, args.case.as_deref(), |done, total| {
+        let progress = |done, total| {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
             log.report(|| {
@@ -216,7 +223,12 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
                 };
                 format!("{done}/{total} renders{eta}")
             });
-        })
+        };
+        if args.power {
+            validate::run_power(&args.media, args.case.as_deref(), progress)
+        } else {
+            validate::run(&args.media, effort, args.case.as_deref(), progress)
+        }
     })?;
     bar.finish_and_clear();
     if rows.is_empty() {
@@ -232,15 +244,24 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
              docs/validation.md has the full run (haze validate without --quick)."
         );
     }
-    println!(
-        "{} cases, {} seeds each, {} iterations x {} light paths per render; {} threads; {:.0} s",
-        rows.len(),
-        effort.seeds,
-        effort.iterations,
-        effort.photons,
-        pool.current_num_threads(),
-        start.elapsed().as_secs_f64()
-    );
+    if args.power {
+        println!(
+            "{} rows of the power cases, each at its own effort (docs/validation.md); {} threads; {:.0} s",
+            rows.len(),
+            pool.current_num_threads(),
+            start.elapsed().as_secs_f64()
+        );
+    } else {
+        println!(
+            "{} rows, {} seeds each, {} iterations x {} light paths per render; {} threads; {:.0} s",
+            rows.len(),
+            effort.seeds,
+            effort.iterations,
+            effort.photons,
+            pool.current_num_threads(),
+            start.elapsed().as_secs_f64()
+        );
+    }
     if let Some(p) = &args.markdown {
         haze::output::write_bytes(p, table.as_bytes())?;
     }
