@@ -15,6 +15,11 @@
 //!   1 − (1 − α)^{1/m} for m tiles (Šidák): the chance that any tile of two images of the same
 //!   expectation fails is α.
 //!
+//! - beside the tiles, each channel's **whole-image mean** is tested the same way (the pooled
+//!   test: Δ_c and s_c over every pixel, s_c = √(Σ v_a,c + v_b,c) / N): a uniform shift too small
+//!   to show in any one tile — a colour channel 2 % off everywhere — shows there. The m tiles and
+//!   the three channels share the family-wise α (Šidák over m + 3 tests).
+//!
 //! Independence holds for the path tracer (every pixel's samples are its own). A photon-mapping
 //! image's neighbouring pixels share photons, so their errors are positively correlated and s
 //! understates the tile's noise: compare such images through several independent renders
@@ -65,6 +70,9 @@ pub struct Comparison {
     pub critical_z: f64,
     /// Every tile, row by row.
     pub tiles: Vec<Tile>,
+    /// The whole image's mean, one channel at a time (R, G, B): the pooled test, with the tiles'
+    /// critical value. Its tiles' `x0`, `y0` are 0.
+    pub pooled: [Tile; 3],
 }
 
 impl Comparison {
@@ -73,9 +81,21 @@ impl Comparison {
         self.tiles.iter().filter(|t| t.z.abs() > self.critical_z).collect()
     }
 
-    /// True if no tile fails.
+    /// The channels (0 R, 1 G, 2 B) whose whole-image mean differs beyond the critical value.
+    pub fn pooled_failures(&self) -> Vec<usize> {
+        (0..3).filter(|&c| self.pooled[c].z.abs() > self.critical_z).collect()
+    }
+
+    /// True if no tile and no channel's whole-image mean fails.
     pub fn pass(&self) -> bool {
-        self.failures().is_empty()
+        self.failures().is_empty() && self.pooled_failures().is_empty()
+    }
+
+    /// The smallest shift of channel `c`'s whole-image mean, relative to image b's, that the
+    /// pooled test detects with power 0.9: (z* + z₀.₉) s_c / |mean_b,c| (plus the allowance).
+    pub fn pooled_detectable(&self, c: usize, mean_b: f64) -> f64 {
+        let t = &self.pooled[c];
+        (t.allowance + (self.critical_z + 1.2816) * t.se) / mean_b.abs()
     }
 
     /// The tile of largest |z|.
@@ -100,14 +120,19 @@ impl Comparison {
                 t.z
             )
         });
+        let pooled = self.pooled.map(|t| format!("{:+.2}", t.z));
         format!(
-            "{} of {} tiles of {}×{} differ beyond |z| {:.2} (significance {} over all tiles, Šidák){worst}",
+            "{} of {} tiles of {}×{} differ beyond |z| {:.2} (significance {} over all tiles and the three channel means, Šidák){worst}; whole-image channel means z {}, {}, {}{}",
             self.failures().len(),
             self.tiles.len(),
             self.tile,
             self.tile,
             self.critical_z,
-            self.significance
+            self.significance,
+            pooled[0],
+            pooled[1],
+            pooled[2],
+            if self.pooled_failures().is_empty() { "" } else { " (FAIL)" }
         )
     }
 }
@@ -154,6 +179,31 @@ pub fn compare(a: &NoisyImage, b: &NoisyImage, tile: u32, significance: f64) -> 
         )));
     }
     let w = a.width as usize;
+    let z_of = |difference: f64, se: f64, allowance: f64| {
+        let excess = (difference.abs() - allowance).max(0.0);
+        if !difference.is_finite() || !se.is_finite() {
+            // A non-finite pixel (NaN, ∞) fails its tile whatever else it holds.
+            f64::INFINITY
+        } else {
+            match (excess > 0.0, se > 0.0) {
+                (false, _) => 0.0,
+                (true, true) => excess / se * difference.signum(),
+                (true, false) => f64::INFINITY * difference.signum(),
+            }
+        }
+    };
+    let pooled = [0, 1, 2].map(|c| {
+        let (mut diff, mut var, mut allowance) = (0.0, 0.0, 0.0);
+        for i in 0..n {
+            diff += a.pixels[i][c] as f64 - b.pixels[i][c] as f64;
+            var += (a.variance[i][c] as f64).max(0.0) + (b.variance[i][c] as f64).max(0.0);
+            allowance +=
+                a.bias.map_or(0.0, |v| v[i][c] as f64) + b.bias.map_or(0.0, |v| v[i][c] as f64);
+        }
+        let (difference, se, allowance) =
+            (diff / n as f64, var.sqrt() / n as f64, allowance / n as f64);
+        Tile { x0: 0, y0: 0, difference, se, allowance, z: z_of(difference, se, allowance) }
+    });
     let mut tiles = Vec::new();
     for y0 in (0..a.height).step_by(tile as usize) {
         for x0 in (0..a.width).step_by(tile as usize) {
@@ -177,21 +227,18 @@ pub fn compare(a: &NoisyImage, b: &NoisyImage, tile: u32, significance: f64) -> 
             }
             let (difference, allowance) = (diff / count, allowance / count);
             let se = var.sqrt() / count;
-            let excess = (difference.abs() - allowance).max(0.0);
-            let z = if !difference.is_finite() || !se.is_finite() {
-                // A non-finite pixel (NaN, ∞) fails its tile whatever else it holds.
-                f64::INFINITY
-            } else {
-                match (excess > 0.0, se > 0.0) {
-                    (false, _) => 0.0,
-                    (true, true) => excess / se * difference.signum(),
-                    (true, false) => f64::INFINITY * difference.signum(),
-                }
-            };
-            tiles.push(Tile { x0, y0, difference, se, allowance, z });
+            tiles.push(Tile {
+                x0,
+                y0,
+                difference,
+                se,
+                allowance,
+                z: z_of(difference, se, allowance),
+            });
         }
     }
-    Ok(Comparison { tile, significance, critical_z: critical_z(tiles.len(), significance), tiles })
+    let critical_z = critical_z(tiles.len() + 3, significance);
+    Ok(Comparison { tile, significance, critical_z, tiles, pooled })
 }
 
 /// Per-tile means of an image (RGB averaged), row by row, for comparisons through several
@@ -278,6 +325,15 @@ mod tests {
         let c = compare(&image(&broken), &image(&b), 8, 1e-3).unwrap();
         let failed: Vec<(u32, u32)> = c.failures().iter().map(|t| (t.x0, t.y0)).collect();
         assert_eq!(failed, vec![(0, 0)], "{}", c.summary());
+        // A uniform shift of one channel by 0.3 sd per pixel: 0.57 standard errors in each tile
+        // (0.1 sd on the tile's mean over channels, s.e. 0.177 sd), invisible there, but 11.8
+        // in the whole-image red mean (s.e. √(2 · 3072) sd / 3072 = 0.0255 sd).
+        let mut red = b.clone();
+        red.iter_mut().for_each(|p| p[0] += 0.3 * sd);
+        let c = compare(&image(&a), &image(&red), 8, 1e-3).unwrap();
+        assert!(c.failures().is_empty(), "{}", c.summary());
+        assert_eq!(c.pooled_failures(), vec![0], "{}", c.summary());
+        assert!(!c.pass());
         // Mismatched sizes are an error.
         let small = NoisyImage { width: 8, height: 8, ..image(&a) };
         assert!(compare(&image(&a), &small, 8, 1e-3).is_err());

@@ -340,6 +340,17 @@ impl Scene {
         &self.medium_names
     }
 
+    /// The extinction σ_t = σ_a + σ_s (per unit length, per channel) of the medium named
+    /// `medium` at the world-space point `p`, as the integrators see it (a grid's trilinear
+    /// density, transform, scale and colour grids applied); `None` if no medium has that name.
+    /// For probing a scene's media — and for tests that integrate them independently of the
+    /// renderer's tracking (tests/suite/vdb.rs).
+    pub fn extinction(&self, medium: &str, p: Vec3) -> Option<crate::math::Rgb> {
+        let i = self.medium_names.iter().position(|n| n == medium)?;
+        let m = &self.media[i];
+        Some(m.sigma_a(p) + m.sigma_s(p))
+    }
+
     /// True if the scene has participating media.
     pub fn has_media(&self) -> bool {
         !self.media.is_empty()

@@ -56,29 +56,20 @@ fn furnace_bias(le: f64, sigma_t: f64, r: f64) -> f64 {
     le * sigma_t * r / (2.0 * cos_max) * (-sigma_t * (1.0 - r)).exp()
 }
 
-/// The white furnace at the extremes: optical thickness 0.01 and 100 across the enclosure, and
-/// g = ±0.95. Every method must return L_e (t-test at the suite's significance, with the kernel
+/// The white furnace at the extremes of thickness: optical thickness 0.01 and 100 across the
+/// enclosure. Every method must return L_e (t-test at the suite's significance, with the kernel
 /// bias bound for photon mapping). In the thin medium only ~0.5% of eye rays collide and few
 /// photons are stored, so the estimate is a rare large value: the radius (0.3; its bias bound is
 /// still below 10⁻³) and the iteration count are raised until a render holds several collisions,
 /// or the t-test would see only the common zeros. The dense case random-walks long paths, so it
-/// uses fewer photons and seeds. At g = ±0.95 a photon's phase value f(ω_p, −ω) has a relative
-/// variance of ~200 over directions (∫f² dω = (1 + g²)/(4π (1 − g²)²) against f̄ = 1/4π), and a
-/// path's photons are strongly correlated, so with small radii a render's mean is a rare large
-/// value: at r = 0.02, twelve renders of each photon estimate had a median of a quarter of L_e and
-/// a mean anywhere from 0.4 to 1.5 (the t-test then assumes a normality the means do not have).
-/// The radius 0.2 gathers 100× (beam) and 1000× (point) more photons per query; its boundary bias
-/// bound is 0.047.
+/// uses fewer photons and seeds. Strong anisotropy has a test of its own
+/// ([`anisotropic_furnace_at_a_working_radius`]).
 #[test]
 fn furnace_holds_at_extreme_thickness_and_anisotropy() {
     let le = 1.0;
     // (σ_s, g, volume radius, photons, seeds, iterations)
-    let cases = [
-        (0.005f32, 0.0f32, 0.3f64, 20_000u64, 12u64, 16u64),
-        (50.0, 0.0, 0.03, 3_000, 8, 4),
-        (2.0, 0.95, 0.2, 10_000, 12, 4),
-        (2.0, -0.95, 0.2, 10_000, 12, 4),
-    ];
+    let cases =
+        [(0.005f32, 0.0f32, 0.3f64, 20_000u64, 12u64, 16u64), (50.0, 0.0, 0.03, 3_000, 8, 4)];
     for (sigma_s, g, r, photons, seeds, iterations) in cases {
         let scene = furnace(Vec3::splat(le), homogeneous(Vec3::ZERO, Vec3::splat(sigma_s), g));
         for (estimate, integrator) in [
@@ -104,6 +95,75 @@ fn furnace_holds_at_extreme_thickness_and_anisotropy() {
             );
         }
     }
+}
+
+/// The white furnace with g = ±0.95 (σ_s 2) at working radii: 0.02 for the beam estimate — the
+/// radius this test had before, on 2026-12-02, it was moved to 0.2 to pass (which grew its bias
+/// allowance from 0.29 % to 4.2 %) — and 0.05 for the point estimate (allowance 0.74 %), whose
+/// 3-D ball at 0.02 is 16 times smaller than at 0.05 and mostly finds no photon at all: at 0.02
+/// the means of 64 renders of 10,000 light paths × 8 iterations read 0.52 to 1.73 by method and
+/// g, and the hybrid's at g 0.95 lay below L_e even by the bootstrap-t interval (0.636, interval
+/// [0.507, 0.991]; measured 2026-12-04): the renders had missed the rare photons that carry a
+/// third of the mean. At g = ±0.95 a photon's phase value f(ω_p, −ω) has a relative variance of ~200
+/// over directions (∫f² dω = (1 + g²)/(4π (1 − g²)²) against f̄ = 1/4π) and a path's photons are
+/// strongly correlated, so at this radius one render's mean is a rare large value: its
+/// distribution is right-skewed (skewness 1.5–6.5 over these renders; measured 2026-12-04) and
+/// most renders read low. A t-test assumes a normality the means do not have, and batch means of
+/// 8 renders were still skewed up to 1.7. So the test uses the bootstrap-t interval (Efron &
+/// Tibshirani 1993, ch. 12.5), which carries the skewness of the studentised mean into the
+/// interval: 64 renders per method, 20,000 resamples of them, the 0.05 % and 99.95 % quantiles
+/// q of t* = (m* − m)/s*, and the interval [m − q₉₉.₉₅ s, m − q₀.₀₅ s] at significance 10⁻³,
+/// which must reach L_e within the kernel's wall bias bound at the radius (`furnace_bias`). The path tracer, which has no radius, is held to the same interval. The test
+/// prints each interval: its width is what the test can see at this radius (tens of per cent for
+/// the photon estimates — the honest power of a furnace this anisotropic at this effort).
+#[test]
+fn anisotropic_furnace_at_a_working_radius() {
+    use crate::common::Rng;
+    let (le, renders) = (1.0f64, 64u64);
+    let mut failures = Vec::new();
+    for g in [0.95f32, -0.95] {
+        let scene = furnace(Vec3::splat(le as f32), homogeneous(Vec3::ZERO, Vec3::splat(2.0), g));
+        for (estimate, integrator) in [
+            (VolumeEstimate::Beam, Integrator::Hybrid),
+            (VolumeEstimate::Point, Integrator::Hybrid),
+            (VolumeEstimate::Beam, Integrator::PhotonMapping),
+            (VolumeEstimate::Point, Integrator::PhotonMapping),
+            (VolumeEstimate::Beam, Integrator::Path),
+        ] {
+            // The point estimate's 3-D ball at 0.02 is a starved estimate, not a working one.
+            let r = if estimate == VolumeEstimate::Point { 0.05 } else { 0.02 };
+            let run = Run { estimate, integrator, r, photons: 20_000, iterations: 8 };
+            let xs = run.means(&scene, 2000..2000 + renders);
+            let (mean, se) = mean_and_se(&xs);
+            // Bootstrap-t: the distribution of the studentised mean over resamples.
+            let mut rng = Rng::new(31, renders);
+            let mut ts: Vec<f64> = (0..20_000)
+                .filter_map(|_| {
+                    let resample: Vec<f64> =
+                        (0..xs.len()).map(|_| xs[rng.below(xs.len())]).collect();
+                    let (m, s) = mean_and_se(&resample);
+                    (s > 0.0).then(|| (m - mean) / s)
+                })
+                .collect();
+            ts.sort_by(f64::total_cmp);
+            let q = |p: f64| ts[((p * ts.len() as f64) as usize).min(ts.len() - 1)];
+            let alpha = crate::common::SIGNIFICANCE;
+            let (lo, hi) = (mean - q(1.0 - alpha / 2.0) * se, mean - q(alpha / 2.0) * se);
+            let bias = match integrator {
+                Integrator::Path => 0.0,
+                _ => furnace_bias(le, 2.0, r),
+            };
+            let line = format!(
+                "anisotropic furnace g {g}, r {r}, {estimate:?} {integrator:?}: mean {mean:.4} ± \
+                 {se:.4}, bootstrap-t interval [{lo:.4}, {hi:.4}] at {alpha}, bias bound {bias:.4}"
+            );
+            eprintln!("{line}");
+            if le < lo - bias || le > hi + bias {
+                failures.push(line);
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 /// Two independent sets of estimates agree: Welch's difference of means against the critical
