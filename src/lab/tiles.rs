@@ -22,7 +22,8 @@
 //!
 //! Independence holds for the path tracer (every pixel's samples are its own). A photon-mapping
 //! image's neighbouring pixels share photons, so their errors are positively correlated and s
-//! understates the tile's noise: compare such images through several independent renders
+//! understates the tile's noise — and s_c of the pooled test far more, since every pixel of the
+//! image shares the photons: compare such images through several independent renders
 //! ([`tile_means`] over seeds) rather than through their variance layers.
 
 use crate::error::{Error, Result};
