@@ -773,7 +773,9 @@ fn integrate(f: impl Fn(f64) -> f64, a: f64, b: f64, panels: usize) -> f64 {
     if b <= a {
         return 0.0;
     }
-    let rule = gauss_legendre(24);
+    // Computed once: `integrate` runs inside the integrands of `kernel_moment`.
+    static RULE: std::sync::OnceLock<Vec<(f64, f64)>> = std::sync::OnceLock::new();
+    let rule = RULE.get_or_init(|| gauss_legendre(24));
     let h = (b - a) / panels as f64;
     (0..panels)
         .map(|k| {
@@ -967,46 +969,54 @@ fn mirrored_power_cases() -> Vec<Case> {
     let omega = 0.99;
     if let Some(h) = HFunction::new(omega) {
         let reference = irradiance * half_space_reflectance(&h, 1.0);
-        out.push(Case {
-            name: format!("half-space ω {omega}, μ 1, mirrored"),
-            medium: "homogeneous",
-            toml: mirrored_slab_toml(omega, 48.0, 0.0, irradiance, 16),
+        // The bottom at depth 48: light reaching it, and coming back up, is ≤ e^{−2·48/L_D}
+        // of the reflected light (L_D = 1/√(3(1 − ω)) = 5.8).
+        let bottom = reference * (-2.0 * 48.0 * (3.0 * (1.0 - omega)).sqrt()).exp();
+        out.push(mirrored_case(
+            format!("half-space ω {omega}, μ 1, mirrored"),
+            (omega, 48.0, irradiance),
             reference,
-            bias: Box::new(|_, _| 0.0),
-            // The bottom at depth 48: light reaching it, and coming back up, is ≤ e^{−2·48/L_D}
-            // of the reflected light (L_D = 1/√(3(1 − ω)) = 5.8).
-            setup_bias: reference * (-2.0 * 48.0 * (3.0 * (1.0 - omega)).sqrt()).exp()
-                + offset_bias(reference, 2.0),
-            max_bounces: 10_000,
-            volume_radius: [0.1, 0.1],
-            photons_scale: 1,
-            expected: Some(Box::new(move |estimate, _, _| {
-                (estimate == VolumeEstimate::Beam).then_some(reference)
-            })),
-            power: Some(Power {
-                effort: Effort { seeds: 16, iterations: 8, photons: 30_000 },
-                path_spp: 256,
-                methods: &["hybrid/beam", "photons/beam", "path"],
-                target: 1e-2,
-            }),
-        });
+            bottom,
+            30_000,
+        ));
     }
     // tests/adding_doubling.py 20 0.999: radiance reflected at μ = 1 per unit irradiance at
     // normal incidence (8, 16, 24, 32 ordinates: 0.294092363, 0.294091930, 0.294091923,
     // 0.294091922).
     let reference = irradiance * 0.294_091_922;
-    out.push(Case {
-        name: "dense slab (τ 20, ω 0.999), μ 1, mirrored".into(),
+    // Paths of more than 10,000 events are cut. Were every event a scattering, a path would
+    // survive that many with probability 0.999^10000 = 4.5·10⁻⁵; mirror reflections count as
+    // events too, so this is not a strict bound, but a path meets a mirror only every few units
+    // of sideways travel, far less often than it scatters (σ_t 1): the light lost at the cut
+    // stays far below it.
+    let cut = reference * 0.999f64.powi(10_000);
+    out.push(mirrored_case(
+        "dense slab (τ 20, ω 0.999), μ 1, mirrored".into(),
+        (0.999, 20.0, irradiance),
+        reference,
+        cut,
+        16_000,
+    ));
+    out
+}
+
+/// A power case of [`mirrored_slab_toml`] (albedo, depth, irradiance), seen straight down, all
+/// orders: the beam estimate's expectation is `reference` exactly; `lost` is the set-up's own
+/// bias bound (the ray offsets are added); `photons` per iteration for the photon methods.
+fn mirrored_case(
+    name: String,
+    (omega, depth, irradiance): (f64, f64, f64),
+    reference: f64,
+    lost: f64,
+    photons: u64,
+) -> Case {
+    Case {
+        name,
         medium: "homogeneous",
-        toml: mirrored_slab_toml(0.999, 20.0, 0.0, irradiance, 16),
+        toml: mirrored_slab_toml(omega, depth, 0.0, irradiance, 16),
         reference,
         bias: Box::new(|_, _| 0.0),
-        // Paths of more than 10,000 events are cut. Were every event a scattering, a path would
-        // survive that many with probability 0.999^10000 = 4.5·10⁻⁵; mirror reflections count
-        // as events too, so this is not a strict bound, but a path meets a mirror only every few
-        // units of sideways travel, far less often than it scatters (σ_t 1): the light lost at
-        // the cut stays far below it.
-        setup_bias: reference * 0.999f64.powi(10_000) + offset_bias(reference, 2.0),
+        setup_bias: lost + offset_bias(reference, 2.0),
         max_bounces: 10_000,
         volume_radius: [0.1, 0.1],
         photons_scale: 1,
@@ -1014,13 +1024,12 @@ fn mirrored_power_cases() -> Vec<Case> {
             (estimate == VolumeEstimate::Beam).then_some(reference)
         })),
         power: Some(Power {
-            effort: Effort { seeds: 16, iterations: 8, photons: 16_000 },
+            effort: Effort { seeds: 16, iterations: 8, photons },
             path_spp: 256,
             methods: &["hybrid/beam", "photons/beam", "path"],
             target: 1e-2,
         }),
-    });
-    out
+    }
 }
 
 /// The methods every case is rendered with: (name, integrator, volume estimate).
@@ -1104,7 +1113,8 @@ fn run_cases(
             if let (Some(p), true) = (case.power, next_event) {
                 effort.iterations = p.path_spp;
                 if integrator == Integrator::Hybrid {
-                    effort.photons = 1000 / case.photons_scale.max(1);
+                    // Traced and discarded (no photon is gathered at one bounce).
+                    effort.photons = 1000;
                 }
             }
             let (mut xs, mut stated, mut covered) = (Vec::new(), Vec::new(), (0u32, 0u32));

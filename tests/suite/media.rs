@@ -61,6 +61,16 @@ pub(crate) fn furnace_with_light(le: Vec3, medium: MediumDesc, light: Option<Lig
     b.build().unwrap()
 }
 
+/// Every method of the furnace-style tests: both volume estimates in the hybrid and in photon
+/// mapping alone, and the path tracer.
+pub(crate) const METHODS: [(VolumeEstimate, Integrator); 5] = [
+    (VolumeEstimate::Beam, Integrator::Hybrid),
+    (VolumeEstimate::Point, Integrator::Hybrid),
+    (VolumeEstimate::Beam, Integrator::PhotonMapping),
+    (VolumeEstimate::Point, Integrator::PhotonMapping),
+    (VolumeEstimate::Beam, Integrator::Path),
+];
+
 pub(crate) fn volume_settings(estimate: VolumeEstimate, r: f64, seed: u64) -> RenderSettings {
     RenderSettings {
         iterations: Some(4),
@@ -98,13 +108,7 @@ fn white_furnace_with_media_for_both_estimators() {
     let cos_max = ((FURNACE_FOV_DEG.to_radians() / 2.0).tan() * 2f32.sqrt()).atan().cos() as f64;
     for (sigma_s, g, r) in cases {
         let scene = furnace(le, homogeneous(Vec3::ZERO, sigma_s, g));
-        for (estimate, integrator) in [
-            (VolumeEstimate::Beam, Integrator::Hybrid),
-            (VolumeEstimate::Point, Integrator::Hybrid),
-            (VolumeEstimate::Beam, Integrator::PhotonMapping),
-            (VolumeEstimate::Point, Integrator::PhotonMapping),
-            (VolumeEstimate::Beam, Integrator::Path),
-        ] {
+        for (estimate, integrator) in METHODS {
             let per_channel: Vec<[f64; 3]> = (0..16)
                 .map(|seed| {
                     let mut settings = volume_settings(estimate, r, seed);

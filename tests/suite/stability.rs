@@ -5,7 +5,9 @@
 //! same regimes meet known answers.
 
 use crate::common::{assert_agrees, mean_and_se, t_critical};
-use crate::media::{FURNACE_FOV_DEG, furnace, furnace_with_light, homogeneous, volume_settings};
+use crate::media::{
+    FURNACE_FOV_DEG, METHODS, furnace, furnace_with_light, homogeneous, volume_settings,
+};
 use haze::glam::Vec3;
 use haze::progress::{Silent, Status};
 use haze::scene::LightDesc;
@@ -72,13 +74,7 @@ fn furnace_holds_at_extreme_thickness_and_anisotropy() {
         [(0.005f32, 0.0f32, 0.3f64, 20_000u64, 12u64, 16u64), (50.0, 0.0, 0.03, 3_000, 8, 4)];
     for (sigma_s, g, r, photons, seeds, iterations) in cases {
         let scene = furnace(Vec3::splat(le), homogeneous(Vec3::ZERO, Vec3::splat(sigma_s), g));
-        for (estimate, integrator) in [
-            (VolumeEstimate::Beam, Integrator::Hybrid),
-            (VolumeEstimate::Point, Integrator::Hybrid),
-            (VolumeEstimate::Beam, Integrator::PhotonMapping),
-            (VolumeEstimate::Point, Integrator::PhotonMapping),
-            (VolumeEstimate::Beam, Integrator::Path),
-        ] {
+        for (estimate, integrator) in METHODS {
             let run = Run { estimate, integrator, r, photons, iterations };
             let xs = run.means(&scene, 0..seeds);
             let bias = match integrator {
@@ -123,13 +119,7 @@ fn anisotropic_furnace_at_a_working_radius() {
     let mut failures = Vec::new();
     for g in [0.95f32, -0.95] {
         let scene = furnace(Vec3::splat(le as f32), homogeneous(Vec3::ZERO, Vec3::splat(2.0), g));
-        for (estimate, integrator) in [
-            (VolumeEstimate::Beam, Integrator::Hybrid),
-            (VolumeEstimate::Point, Integrator::Hybrid),
-            (VolumeEstimate::Beam, Integrator::PhotonMapping),
-            (VolumeEstimate::Point, Integrator::PhotonMapping),
-            (VolumeEstimate::Beam, Integrator::Path),
-        ] {
+        for (estimate, integrator) in METHODS {
             // The point estimate's 3-D ball at 0.02 is a starved estimate, not a working one.
             let r = if estimate == VolumeEstimate::Point { 0.05 } else { 0.02 };
             let run = Run { estimate, integrator, r, photons: 20_000, iterations: 8 };
@@ -244,13 +234,7 @@ fn albedo_0999_photon_mapping_and_path_tracing_match_an_analog_walk() {
         assert!(sigma_t < 1.0 || truth < 0.5, "σ_t = {sigma_t}: walk reads {truth}");
         let l_d = 1.0 / (3.0 * sigma_a.x as f64 * sigma_t as f64).sqrt();
         let bias = furnace_bias(1.0, sigma_t as f64, r) + r * r / (2.0 * l_d * l_d);
-        for (estimate, integrator) in [
-            (VolumeEstimate::Beam, Integrator::Hybrid),
-            (VolumeEstimate::Point, Integrator::Hybrid),
-            (VolumeEstimate::Beam, Integrator::PhotonMapping),
-            (VolumeEstimate::Point, Integrator::PhotonMapping),
-            (VolumeEstimate::Beam, Integrator::Path),
-        ] {
+        for (estimate, integrator) in METHODS {
             let run = Run { estimate, integrator, r, photons, iterations };
             let xs = run.means(&scene, 100..100 + seeds);
             let bias = if integrator == Integrator::Path { 0.0 } else { bias };
