@@ -10,6 +10,7 @@ mod converge;
 mod determinism;
 mod distributed;
 mod fuzz_corpus;
+mod independent;
 mod media;
 mod output;
 mod references;

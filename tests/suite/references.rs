@@ -4,7 +4,7 @@
 //! regression test that sees where an image changed. The references are haze's own renders, so
 //! they cannot see a bug that was there when they were made; the independent checks of the
 //! bundled scenes are elsewhere (`vdb::grid_scenes_transmit_as_a_quadrature_of_their_density`,
-//! `haze validate --power`; docs/validation.md).
+//! the tests of `independent.rs`, `haze validate --power`; docs/validation.md).
 //!
 //! A 512-sample path-traced render (seed 1) against the 8,192-sample reference (seed 1000), in
 //! 4 × 4-pixel tiles; the path tracer's pixels are independent, so the variance layers give each
