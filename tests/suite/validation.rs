@@ -18,9 +18,9 @@ fn quick_validation_passes_every_case() {
     let rows =
         haze::lab::validate::run(&media, haze::lab::validate::Effort::QUICK, None, |_, _| {})
             .unwrap();
-    // 19 cases × 5 methods, but the 4 single-scattering cases run the hybrid once ("hybrid
+    // 20 cases × 5 methods, but the 5 single-scattering cases run the hybrid once ("hybrid
     // (next-event only)": its volume estimates take no part there).
-    assert_eq!(rows.len(), 91);
+    assert_eq!(rows.len(), 95);
     let failed: Vec<String> = rows
         .iter()
         .filter(|r| !r.pass())
@@ -33,7 +33,7 @@ fn quick_validation_passes_every_case() {
         .collect();
     assert!(failed.is_empty(), "{}", failed.join("\n"));
     assert!(haze::lab::validate::markdown(&rows).contains("| pass |"));
-    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 92);
+    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 96);
 
     // The cases behind two fixed defects are there (and passed above):
     // - a grazing view of the half-space with a small beam radius from two camera distances,
