@@ -21,6 +21,14 @@ prints the answer at several orders so that its convergence can be read off:
 
     python3 tests/adding_doubling.py            # the dense case: tau 20, omega 0.999
     python3 tests/adding_doubling.py 20 0.999 --check
+
+With --source it prints instead the source function S(tau) = omega J(tau) of the semi-infinite
+medium (a slab of depth 60) under the same light, per unit irradiance, at the depths of the table
+`HALF_SPACE_SOURCE` of src/lab/validate.rs (the all-orders half-space cases' kernel expectations):
+the mean intensity J at depth tau from the radiances at the interface of a top layer of thickness
+tau over the rest, by adding (D = (I - R_a R_b)^-1 T_a I_0 going down, U = R_b D going up):
+
+    python3 tests/adding_doubling.py --source 0.8
 """
 
 import math
@@ -171,7 +179,41 @@ def h_function(omega, mu, n=400):
     return 1.0 / (math.sqrt(1.0 - omega) + omega / 2.0 * sum(wj * xj * hj / (mu + xj) for wj, xj, hj in zip(ws, xs, h)))
 
 
+SOURCE_DEPTHS = (
+    [0.002 * k for k in range(51)]
+    + [0.1 + 0.02 * k for k in range(1, 46)]
+    + [1.0 + 0.25 * k for k in range(1, 61)]
+)
+
+
+def source_profile(omega, depths, n, deep=60.0):
+    """S(tau) per unit irradiance at normal incidence, at each depth, in a semi-infinite medium."""
+    rb, _, mu, w = slab(deep, omega, n)
+    i0 = [[0.0] for _ in range(n)]
+    i0[-1][0] = 1.0 / (2.0 * math.pi * w[-1] * mu[-1])
+    out = []
+    for tau in depths:
+        if tau == 0.0:
+            d = i0
+        else:
+            ra, ta, _, _ = slab(tau, omega, n)
+            d = solve(sub(eye(n), matmul(ra, rb)), matmul(ta, i0))
+        u = matmul(rb, d)
+        four_pi_j = 2.0 * math.pi * sum(w[i] * (d[i][0] + u[i][0]) for i in range(n))
+        out.append(omega * four_pi_j / (4.0 * math.pi))
+    return out
+
+
 def main():
+    if "--source" in sys.argv:
+        omega = float(sys.argv[sys.argv.index("--source") + 1])
+        coarse = source_profile(omega, SOURCE_DEPTHS, 8)
+        fine = source_profile(omega, SOURCE_DEPTHS, 16)
+        print(f"// S(tau) per unit irradiance, omega {omega}, 16 Radau nodes (8 nodes differ by at most "
+              f"{max(abs(a / b - 1.0) for a, b in zip(coarse, fine)):.1e} relative)")
+        for k in range(0, len(fine), 6):
+            print("    " + " ".join(f"{v:.9e}," for v in fine[k:k + 6]))
+        return
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     tau = float(args[0]) if args else 20.0
     omega = float(args[1]) if len(args) > 1 else 0.999
