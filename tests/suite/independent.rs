@@ -277,7 +277,7 @@ fn panels(rule: &[(f64, f64)], a: f64, b: f64, n: usize, mut f: impl FnMut(f64, 
 /// strata: a pixel's two halves), 512 iterations for the render (independent pixels: its variance
 /// layer gives the window's standard error); a z-test per window and channel at the suite's
 /// significance, and one on the 14 windows that do not see the lamp pooled (the two that do
-/// carry the lamp's pixel-edge noise, ~20 % of their mean), Šidák over all 204. The pooled
+/// carry the lamp's pixel-edge noise and detect only 20–54 % shifts), Šidák over all 204. The pooled
 /// comparison must detect a 1 % shift (measured: 0.21–0.78 %; single windows 0.24–2.6 %).
 /// In-scattering by next-event estimation scaled by 1.01 fails every pooled row (z 8.6–28).
 /// (dense-fog has no single scattering to see: the lamp's light is e^{−48} by the time it reaches
