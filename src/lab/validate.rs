@@ -1053,7 +1053,15 @@ fn tabulated_source(tau: f64) -> f64 {
         let rate = (HALF_SPACE_SOURCE[last - 1] / HALF_SPACE_SOURCE[last]).ln() / 0.25;
         return HALF_SPACE_SOURCE[last] * (-(tau - half_space_depth(last)) * rate).exp();
     }
-    let k = (0..last).rfind(|&k| half_space_depth(k) <= tau).unwrap_or(0);
+    // The entry at or below tau, from the grid's three spacings (half_space_depth inverted).
+    let k = if tau < 0.1 {
+        (tau / 0.002) as usize
+    } else if tau < 1.0 {
+        50 + ((tau - 0.1) / 0.02) as usize
+    } else {
+        95 + ((tau - 1.0) / 0.25) as usize
+    }
+    .min(last - 1);
     let (a, b) = (half_space_depth(k), half_space_depth(k + 1));
     let f = (tau - a) / (b - a);
     HALF_SPACE_SOURCE[k] * (1.0 - f) + HALF_SPACE_SOURCE[k + 1] * f
@@ -1089,10 +1097,10 @@ fn half_space_kernel_deviation(
     };
     let averaged =
         |t: f64| integrate(|x| kernel_marginal(kernel, dim, x) * s(mu * t + rho * x), -1.0, 1.0, 4);
-    let total = along(&|t| tabulated_source(mu * t));
     if rho <= 0.0 {
         return 0.0;
     }
+    let total = along(&|t| tabulated_source(mu * t));
     (along(&averaged) - along(&|t| s(mu * t))) / total
 }
 
