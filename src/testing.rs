@@ -14,9 +14,6 @@ use glam::{DVec2, Vec3};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::f64::consts::PI;
 
-/// Significance of every statistical test (before the multiple-comparison correction).
-pub(crate) const SIGNIFICANCE: f64 = 1e-3;
-
 /// The space samples live in.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Domain {
@@ -92,29 +89,10 @@ pub(crate) fn temp_dir(test: &str) -> TempDir {
     TempDir::new("unit", test)
 }
 
-/// Mean and standard error of the mean of `xs`.
-pub(crate) fn mean_and_se(xs: &[f64]) -> (f64, f64) {
-    let n = xs.len() as f64;
-    let mean = xs.iter().sum::<f64>() / n;
-    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
-}
-
-/// Asserts that the mean of independent estimates `xs` agrees with `reference` by a two-sided
-/// Student t-test at [`SIGNIFICANCE`], allowing a known bias bound `bias` on top of the noise.
-pub(crate) fn assert_agrees(what: &str, xs: &[f64], reference: f64, bias: f64) {
-    use statrs::distribution::StudentsT;
-    let (mean, se) = mean_and_se(xs);
-    let t = StudentsT::new(0.0, 1.0, (xs.len() - 1) as f64)
-        .unwrap()
-        .inverse_cdf(1.0 - SIGNIFICANCE / 2.0);
-    let excess = ((mean - reference).abs() - bias).max(0.0);
-    assert!(
-        excess <= t * se,
-        "{what}: mean {mean:.6} ± {se:.6} (n = {}) vs {reference:.6}: |Δ| − bias = {excess:.6} > {t:.2}·se",
-        xs.len()
-    );
-}
+#[path = "../tests/shared/stats.rs"]
+#[allow(dead_code)]
+mod stats;
+pub(crate) use stats::{SIGNIFICANCE, assert_agrees};
 
 /// Means of `batches` batches of `n` draws of `f`, each draw from a stream of its own (for
 /// t-tests of estimators whose single draws are far from normal).
