@@ -201,7 +201,8 @@ fn in_scattered(
         if let Some(ls) = ls {
             let f = phase.eval(d, ls.wi);
             if f > 0.0 && ls.value.max_element() > 0.0 {
-                let w = ls.pdf.map_or(1.0, |p| power_heuristic(light.p_light * p, f));
+                let w =
+                    ls.pdf.map_or(1.0, |p| power_heuristic(light.p_light * p, phase.pdf(d, ls.wi)));
                 let tr = shadow(scene, x, ls.wi, ls.dist, Some(id), s);
                 l += ls.value * tr * (f * w / light.p_light);
             }

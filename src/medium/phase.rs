@@ -26,6 +26,12 @@ pub struct PhaseSample {
     pub value: f32,
     /// Solid-angle density of `wi` (equal to `value`: Henyey–Greenstein sampling is exact).
     pub pdf: f32,
+    /// Solid-angle density of the reverse decision: of sampling `−d_in` for light arriving along
+    /// `−wi` ([`HenyeyGreenstein::pdf`]`(−wi, −d_in)`), which a bidirectional weight asks for.
+    /// No estimator reads it yet (the combined estimator of the next capability will); its
+    /// test holds it to the forward density of the reverse decision.
+    #[allow(dead_code)]
+    pub pdf_reverse: f32,
 }
 
 impl HenyeyGreenstein {
@@ -46,6 +52,14 @@ impl HenyeyGreenstein {
         self.eval_cos(d_in.dot(d_out))
     }
 
+    /// The solid-angle density with which [`Self::sample`] draws `d_out` given `d_in`: the
+    /// phase function itself, as the sampling is exact. Callers that weigh samples (multiple
+    /// importance sampling) ask this, not [`Self::eval`], for a density.
+    #[inline]
+    pub fn pdf(&self, d_in: Vec3, d_out: Vec3) -> f32 {
+        self.eval(d_in, d_out)
+    }
+
     /// Samples d_out ∝ p(d_in, ·) by inverting the CDF of cos θ (pbrt-v4, §11.3.1).
     pub fn sample(&self, d_in: Vec3, u: Vec2) -> PhaseSample {
         let g = self.g;
@@ -62,7 +76,9 @@ impl HenyeyGreenstein {
         // From the direction as returned (not from cos θ before rounding), so that a caller's
         // own evaluation of `wi` gives the same number.
         let value = self.eval(d_in, wi);
-        PhaseSample { wi, value, pdf: value }
+        // The reverse decision turns through the same angle, (−wi)·(−d_in) = d_in·wi, and
+        // Henyey–Greenstein depends on that angle alone: the same density, to the bit.
+        PhaseSample { wi, value, pdf: value, pdf_reverse: value }
     }
 }
 
@@ -89,10 +105,13 @@ mod tests {
                 |s| {
                     let ps = hg.sample(d_in, s.next_2d());
                     cosines.push(ps.wi.dot(d_in) as f64);
-                    assert!(ps.value == hg.eval(d_in, ps.wi) && ps.pdf == ps.value);
+                    assert!(ps.value == hg.eval(d_in, ps.wi) && ps.pdf == hg.pdf(d_in, ps.wi));
+                    // The reverse decision: from −wi, drawing −d_in.
+                    let reverse = hg.pdf(-ps.wi, -d_in);
+                    assert_eq!(ps.pdf_reverse, reverse, "{ps:?}");
                     Some(Sample::Direction(ps.wi))
                 },
-                |d| hg.eval(d_in, d.direction()) as f64,
+                |d| hg.pdf(d_in, d.direction()) as f64,
             );
             let batches: Vec<f64> = cosines
                 .chunks(cosines.len() / 20)
