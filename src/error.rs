@@ -143,5 +143,10 @@ fn place(path: &std::path::Path, line: Option<usize>) -> String {
     }
 }
 
+/// An invalid value of the scene field `key` (the loader adds the file and line).
+pub(crate) fn invalid(key: String, message: impl Into<String>) -> Error {
+    Error::Invalid { path: std::path::PathBuf::new(), line: None, key, message: message.into() }
+}
+
 /// Result type of the library.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -252,12 +252,12 @@ impl Film {
     /// pixels independent, a pixel's three channels fully correlated. B is the mean over pixels
     /// and channels of b² − w, b the bias estimate and w its variance (so that it is unbiased for
     /// the mean squared bias), floored at 0. Over `region`'s pixels only, if given, and in any
-    /// case without the 0.1 % of them with the largest variance ([`crate::output::Region::counted`];
+    /// case without the 0.1 % of them with the largest variance ([`crate::region::Region::counted`];
     /// docs/error.md). `None` before the second iteration; zero for a black image without noise.
     pub fn error_estimate(
         &self,
         confidence: f64,
-        region: Option<crate::output::Region>,
+        region: Option<crate::region::Region>,
     ) -> Option<ErrorEstimate> {
         if self.iterations < 2 {
             return None;
@@ -270,7 +270,7 @@ impl Film {
         let (mut b, mut b2) = (0.0f64, 0.0f64);
         let (w, h) = (self.width, self.height);
         let pixel_variance = |i: usize| variance[i].iter().map(|&c| c as f64).sum::<f64>();
-        let region = region.unwrap_or(crate::output::Region::whole(w, h));
+        let region = region.unwrap_or(crate::region::Region::whole(w, h));
         for i in region.counted(w, h, pixel_variance) {
             let (m, var) = (mean[i], variance[i]);
             let (mut pixel, mut pixel_b) = (0.0, 0.0);

@@ -60,11 +60,13 @@
 
 mod accel;
 mod atomic;
+mod choices;
 mod dda;
 pub mod error;
 mod estimate;
 pub mod film;
 pub mod gridbench;
+mod input;
 mod integrator;
 #[cfg(feature = "lab")]
 pub mod lab;
@@ -75,6 +77,7 @@ pub mod partial;
 mod photon;
 pub mod progress;
 pub mod raybench;
+mod region;
 mod render;
 mod rng;
 pub mod scene;

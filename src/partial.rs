@@ -52,7 +52,7 @@ fn most_bytes(pixels: u64, header: u64) -> u64 {
 
 /// [`most_bytes`] for the image size the file's header states, reading only its first bytes; a
 /// header it cannot read gives the bound of the largest image, and [`Partial::read`] reports what
-/// is wrong with it. `path` must be a regular file ([`crate::scene::check_file`]).
+/// is wrong with it. `path` must be a regular file ([`crate::input::check_file`]).
 fn size_bound(path: &Path) -> Result<u64> {
     use std::io::Read;
     let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
@@ -287,9 +287,9 @@ impl Partial {
         // Past the largest partial render (18.8 GB), or past the most one of the image size its
         // header states can hold, a file is refused before it is read.
         let largest = most_bytes(crate::scene::MAX_PIXELS, MAX_HEADER);
-        crate::scene::check_file(path, largest, "a partial render")?;
+        crate::input::check_file(path, largest, "a partial render")?;
         let what = "a partial render of the size its header states";
-        let bytes = crate::scene::read_bounded(path, size_bound(path)?, what)?;
+        let bytes = crate::input::read_bounded(path, size_bound(path)?, what)?;
         Self::from_bytes(&bytes, path)
     }
 

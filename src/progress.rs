@@ -2,6 +2,7 @@
 //! every finished iteration, and the caller decides what to show (the CLI draws a progress bar).
 
 use crate::film::Film;
+pub use crate::integrator::frame::StepTimes;
 use crate::output::{Image, RenderInfo};
 
 /// What is known after an iteration.
@@ -56,32 +57,6 @@ impl Status<'_> {
             state: self.method.save_state(),
             output: None,
         }
-    }
-}
-
-/// Seconds one iteration spent in each step (zero for steps the method does not have).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StepTimes {
-    /// The photon-guiding pilot, which runs once, before the first iteration's photon pass (zero
-    /// in every other iteration).
-    pub pilot: f64,
-    /// Tracing light paths (the photon pass without the map builds).
-    pub photon_trace: f64,
-    /// Building the surface photon map.
-    pub surface_map: f64,
-    /// Building the volume photon map (beam map or point grid).
-    pub volume_map: f64,
-    /// The camera pass: eye paths with their estimates (for the path tracer, the whole iteration).
-    pub camera: f64,
-    /// With the `profile` feature, the part of `camera` spent in volume estimates (thread time
-    /// divided by the thread count); `None` without it.
-    pub volume_estimates: Option<f64>,
-}
-
-impl StepTimes {
-    /// The whole iteration.
-    pub fn total(&self) -> f64 {
-        self.pilot + self.photon_trace + self.surface_map + self.volume_map + self.camera
     }
 }
 

@@ -135,7 +135,7 @@ pub fn render_partial(
         }
     };
     let start = Instant::now();
-    let mut frame = crate::integrator::Frame::new((width * height) as usize);
+    let mut frame = crate::integrator::frame::Frame::new((width * height) as usize);
     let nonfinite = AtomicU64::new(0);
     let diagonal = scene.diagonal() as f64;
     let truncated_before = scene.truncated_trackings();

@@ -11,7 +11,7 @@
 
 use std::f32::consts::PI;
 
-crate::settings::choices! {
+crate::choices::choices! {
     /// A density-estimation kernel.
     pub enum Kernel ("kernel") {
         /// Uniform over the ball.

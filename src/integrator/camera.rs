@@ -261,10 +261,10 @@ pub(crate) fn render_pass(
     pass: &CameraPass,
     stop: &AtomicBool,
     nonfinite: &AtomicU64,
-    frame: &mut super::Frame,
+    frame: &mut super::frame::Frame,
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    super::render_rows(frame, width, stop, nonfinite, |x, y| {
+    super::frame::render_rows(frame, width, stop, nonfinite, |x, y| {
         pixel_radiance(scene, maps, pass, x, y)
     })
 }

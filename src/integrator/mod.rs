@@ -9,6 +9,7 @@
 
 pub(crate) mod camera;
 pub(crate) mod direct;
+pub(crate) mod frame;
 pub(crate) mod original;
 pub(crate) mod path;
 pub(crate) mod ppm;
@@ -16,33 +17,14 @@ pub(crate) mod single;
 pub(crate) mod walk;
 
 use crate::error::{Error, Result};
-use crate::estimate::Estimate;
 use crate::film::Film;
-use crate::math::Rgb;
-use crate::progress::StepTimes;
 use crate::scene::Scene;
 use crate::settings::{Integrator, Progression, RenderSettings};
+use frame::{Frame, StepTimes};
 use original::OriginalPpm;
 use path::PathTracer;
 use ppm::PhotonMapper;
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
-/// One iteration's image and the kernel bias of its photon estimates (zero for the path tracer),
-/// row-major, top row first.
-pub(crate) struct Frame {
-    /// Radiance.
-    pub value: Vec<Rgb>,
-    /// The estimated kernel bias of `value` ([`Estimate`]).
-    pub bias: Vec<Rgb>,
-}
-
-impl Frame {
-    /// A black frame of `pixels` pixels.
-    pub(crate) fn new(pixels: usize) -> Self {
-        Frame { value: vec![Rgb::ZERO; pixels], bias: vec![Rgb::ZERO; pixels] }
-    }
-}
+use std::sync::atomic::{AtomicBool, AtomicU64};
 
 /// One rendering method and its state between iterations.
 pub(crate) enum Method {
@@ -168,37 +150,4 @@ impl Method {
             Method::Path(_) => [0, 0],
         }
     }
-}
-
-/// Fills `frame` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over rows.
-/// Non-finite samples (value or bias) become black without bias and are counted in `nonfinite`.
-/// Returns `false` if `stop` was raised before every row was done.
-pub(crate) fn render_rows(
-    frame: &mut Frame,
-    width: usize,
-    stop: &AtomicBool,
-    nonfinite: &AtomicU64,
-    radiance: impl Fn(u32, u32) -> Estimate + Sync,
-) -> bool {
-    let rows = frame.value.par_chunks_mut(width).zip(frame.bias.par_chunks_mut(width));
-    rows.enumerate().for_each(|(y, (row, bias))| {
-        if stop.load(Ordering::Relaxed) {
-            return;
-        }
-        for (x, (px, b)) in row.iter_mut().zip(bias).enumerate() {
-            // Pixel by pixel: in a pathological medium one pixel can take milliseconds, and a
-            // stopped iteration is discarded anyway.
-            if stop.load(Ordering::Relaxed) {
-                return;
-            }
-            let e = radiance(x as u32, y as u32);
-            (*px, *b) = if e.value.is_finite() && e.bias.is_finite() {
-                (e.value, e.bias)
-            } else {
-                nonfinite.fetch_add(1, Ordering::Relaxed);
-                (Rgb::ZERO, Rgb::ZERO)
-            };
-        }
-    });
-    !stop.load(Ordering::Relaxed)
 }

@@ -19,13 +19,13 @@
 //! defined for surface hit points only.
 
 use super::camera::{CameraPass, Maps, trace_eye};
+use super::frame::StepTimes;
 use super::ppm::{PhotonMapper, lap};
 use crate::estimate::Estimate;
 use crate::estimate::surface::NORMAL_COS;
 use crate::math::Rgb;
 use crate::photon::Photon;
 use crate::photon::map::PhotonGrid;
-use crate::progress::StepTimes;
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
 use glam::DVec3;
@@ -81,7 +81,7 @@ impl OriginalPpm {
         i: u64,
         stop: &AtomicBool,
         nonfinite: &AtomicU64,
-        frame: &mut super::Frame,
+        frame: &mut super::frame::Frame,
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
         let r = self.stats.rms_radius();
@@ -224,7 +224,7 @@ pub(crate) fn gather_pass(
     paths_so_far: u64,
     stop: &AtomicBool,
     nonfinite: &AtomicU64,
-    frame: &mut super::Frame,
+    frame: &mut super::frame::Frame,
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
     let alpha = state.alpha;

@@ -19,6 +19,7 @@
 //! known weakness photon mapping is for.
 
 use super::direct::{emission_weight, next_event};
+use super::frame::StepTimes;
 use super::single::single_scattering;
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
@@ -26,7 +27,6 @@ use crate::estimate::radius::radius;
 use crate::estimate::volume::EyeSegment;
 use crate::math::{Rgb, offset_origin};
 use crate::medium::Medium;
-use crate::progress::StepTimes;
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
@@ -78,7 +78,7 @@ impl PathTracer {
         i: u64,
         stop: &AtomicBool,
         nonfinite: &AtomicU64,
-        frame: &mut super::Frame,
+        frame: &mut super::frame::Frame,
     ) -> Option<StepTimes> {
         let clock = Instant::now();
         let pass = PathPass { seed: self.seed, iteration: i, max_bounces: self.max_bounces };
@@ -231,10 +231,10 @@ fn render_pass(
     pass: &PathPass,
     stop: &AtomicBool,
     nonfinite: &AtomicU64,
-    frame: &mut super::Frame,
+    frame: &mut super::frame::Frame,
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    super::render_rows(frame, width, stop, nonfinite, |x, y| {
+    super::frame::render_rows(frame, width, stop, nonfinite, |x, y| {
         crate::estimate::Estimate::exact(pixel_radiance(scene, lights, pass, x, y))
     })
 }

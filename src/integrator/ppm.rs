@@ -5,6 +5,7 @@
 //! iteration (memory stays constant), and the camera pass renders one jittered eye path per pixel.
 
 use super::camera::{CameraPass, Maps, render_pass};
+use super::frame::StepTimes;
 use crate::estimate::kernel::Kernel;
 use crate::estimate::radius::radius;
 use crate::estimate::surface::Gather;
@@ -14,7 +15,6 @@ use crate::photon::map::PhotonGrid;
 use crate::photon::marks::{GatherMarks, Tally};
 use crate::photon::trace::{PhotonPass, Photons, trace_photons};
 use crate::photon::{Photon, VolumePhoton};
-use crate::progress::StepTimes;
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
 use crate::scene::light::media::EmitterPool;
@@ -137,7 +137,7 @@ impl PhotonMapper {
         i: u64,
         stop: &AtomicBool,
         nonfinite: &AtomicU64,
-        frame: &mut super::Frame,
+        frame: &mut super::frame::Frame,
     ) -> Option<StepTimes> {
         let (r, r_vol) = self.radii(i);
         let mut times = StepTimes::default();
@@ -277,7 +277,7 @@ impl PhotonMapper {
         let pass = self.camera_pass(iteration, r, r_vol);
         let maps = Maps { marks: Some(&marks), ..self.maps() };
         let [w, h] = scene.camera.resolution;
-        let mut frame = super::Frame::new(w as usize * h as usize);
+        let mut frame = super::frame::Frame::new(w as usize * h as usize);
         let nonfinite = AtomicU64::new(0);
         render_pass(scene, &maps, &pass, stop, &nonfinite, &mut frame).then_some(marks)
     }

@@ -198,7 +198,7 @@ impl Reference {
     }
 }
 
-pub use crate::output::Region;
+pub use crate::region::Region;
 
 /// Errors of an image against a reference (see the module documentation).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

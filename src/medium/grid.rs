@@ -157,7 +157,7 @@ impl DensityGrid {
     /// Reads float grid `name` from the OpenVDB file at `path` in layout `layout`, streaming
     /// the file (it is never held in memory whole).
     pub fn load_with(path: &Path, name: &str, layout: Layout) -> Result<DensityGrid> {
-        crate::scene::check_file(path, MAX_FILE_BYTES, "an OpenVDB file")?;
+        crate::input::check_file(path, MAX_FILE_BYTES, "an OpenVDB file")?;
         let header = std::fs::File::open(path)
             .map_err(|error| Error::Io { path: path.to_path_buf(), error })?;
         let input = Input::File(path);

@@ -6,7 +6,8 @@
 //!
 //!   p(t) = (1/3) Σ_c σ_t,c e^{−σ_t,c t},  P(no collision before t_max) = (1/3) Σ_c e^{−σ_t,c t_max}.
 
-use super::{FreeFlight, phase::HenyeyGreenstein};
+use super::phase::HenyeyGreenstein;
+use super::track::FreeFlight;
 use crate::math::Rgb;
 use glam::Vec3;
 

@@ -17,6 +17,7 @@ pub(crate) mod blocks;
 pub mod grid;
 pub mod homogeneous;
 pub mod phase;
+pub(crate) mod track;
 pub mod vdb;
 pub(crate) mod vdbscan;
 
@@ -26,6 +27,7 @@ use glam::Vec3;
 use homogeneous::Homogeneous;
 use phase::HenyeyGreenstein;
 use smallvec::SmallVec;
+pub use track::FreeFlight;
 use vdb::VdbMedium;
 
 /// The rate, in multiples of a grid's majorants, of the ratio tracking behind the transmittance
@@ -42,17 +44,6 @@ use vdb::VdbMedium;
 /// tracer's noise on vdb-cloud in 30 s was 11.04 % at rate 1 and 11.17 % at rate 4 (631 and 514
 /// samples per pixel).
 pub(crate) const BEAM_SEGMENT_RATE: f32 = 4.0;
-
-/// The outcome of free-flight sampling along a ray segment.
-#[derive(Clone, Copy, Debug)]
-pub struct FreeFlight {
-    /// Distance to the collision, or the segment's end if none.
-    pub t: f32,
-    /// True if a real collision (scattering or absorption event) happened before the end.
-    pub scattered: bool,
-    /// Throughput factor: T(t)/p(t) at a collision, T(t_max)/P(no collision) otherwise.
-    pub weight: Rgb,
-}
 
 /// A participating medium.
 #[derive(Clone, Debug)]

@@ -35,10 +35,10 @@
 //! tracking per channel, and spectral delta tracking with the balance heuristic over a hero
 //! channel ([`VdbMedium::sample_free_flight`]; docs/theory.md).
 
-use super::FreeFlight;
 use super::blocks::Blocked;
 use super::grid::{DensityGrid, MAJORANT_CELL};
 use super::phase::HenyeyGreenstein;
+use super::track::FreeFlight;
 use crate::math::Rgb;
 use crate::rng::Sampler;
 use glam::{Affine3A, IVec3, Vec3};

@@ -3,6 +3,7 @@
 //! with errors naming the item as a key (`shapes[2].emission`, `camera.fov`).
 
 use super::camera::{Camera, CameraDesc};
+use super::describe::MAX_COORDINATE;
 use super::describe::{
     GeometryDesc, GridLayout, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc, MediumId,
     MediumRef, ShapeDesc, TemperatureDesc, Transform,
@@ -10,9 +11,9 @@ use super::describe::{
 use super::light::{self, Emitter, Light};
 use super::material::Material;
 use super::shape::{self, Mesh};
-use super::{GridInfo, MAX_COORDINATE, MediumInterface, Scene, Shape};
+use super::{GridInfo, MediumInterface, Scene, Shape};
 use crate::accel::{Accel, Primitive};
-use crate::error::{Error, Result, quote};
+use crate::error::{Error, Result, invalid, quote};
 use crate::math::Rgb;
 use crate::medium::Medium;
 use crate::medium::grid::DensityGrid;
@@ -87,10 +88,6 @@ fn defined<'a>(names: impl ExactSizeIterator<Item = &'a str>) -> String {
     }
     let list: Vec<String> = names.take(20).map(|k| format!("`{}`", quote(k))).collect();
     format!("defined: {}{}", list.join(", "), if n > 20 { ", …" } else { "" })
-}
-
-pub(super) fn invalid(key: String, message: impl Into<String>) -> Error {
-    Error::Invalid { path: PathBuf::new(), line: None, key, message: message.into() }
 }
 
 fn check_color(key: String, c: Rgb, max: Option<f32>) -> Result<()> {

@@ -162,8 +162,8 @@ impl Camera {
             if !v.is_finite() {
                 return err(k, format!("must be finite, got {v}"));
             }
-            if v.abs().max_element() > super::MAX_COORDINATE {
-                return err(k, format!("{v} lies outside ±{}", super::MAX_COORDINATE));
+            if v.abs().max_element() > super::describe::MAX_COORDINATE {
+                return err(k, format!("{v} lies outside ±{}", super::describe::MAX_COORDINATE));
             }
         }
         let dist = (d.look_at - d.position).length();

@@ -24,6 +24,10 @@ pub use crate::medium::grid::Layout as GridLayout;
 use glam::{Affine3A, Vec3};
 use std::path::PathBuf;
 
+/// Largest coordinate magnitude accepted: beyond it f32 positions are too coarse for ray offsets
+/// and the BVH's quantised boxes (obvhs asserts on such extents).
+pub const MAX_COORDINATE: f32 = 1e6;
+
 /// A colour: one number for grey, three for RGB, or a `Vec3`.
 pub trait IntoRgb {
     /// The RGB value.

@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 
 pub(super) fn load_file(path: &Path) -> Result<Scene> {
-    let bytes = super::read_bounded(path, MAX_SCENE_BYTES, "a scene file")?;
+    let bytes = crate::input::read_bounded(path, MAX_SCENE_BYTES, "a scene file")?;
     let text = String::from_utf8(bytes).map_err(|e| Error::Parse {
         path: path.to_path_buf(),
         line: None,
@@ -388,5 +388,17 @@ fn shape(def: &ShapeDef, base_dir: &Path) -> ShapeDesc {
         interior: interior.clone().map(MediumRef::Name),
         exterior: exterior.clone().map(MediumRef::Name),
         transform: transform(t),
+    }
+}
+
+impl Scene {
+    /// Loads and validates a scene file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
+        load_file(path.as_ref())
+    }
+
+    /// Parses and validates scene text; relative file references resolve against `base_dir`.
+    pub fn from_toml(text: &str, origin: &Path, base_dir: &Path) -> Result<Scene> {
+        load_str(text, origin, base_dir)
     }
 }

@@ -12,6 +12,7 @@ pub(crate) mod shape;
 
 pub use builder::{MAX_TESSELLATION, SceneBuilder};
 pub use camera::{CameraDesc, Lens, MAX_PIXELS};
+pub use describe::MAX_COORDINATE;
 pub use describe::{
     GeometryDesc, GridLayout, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc,
     MediumId, MediumRef, ShapeDesc, TemperatureDesc, Transform, VoxelGrid,
@@ -20,61 +21,15 @@ pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
 
 use crate::accel::{Accel, Hit};
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::error::invalid;
 use crate::math::Rgb;
 use crate::medium::Medium;
 use crate::settings::RenderSettings;
-use builder::invalid;
 use camera::Camera;
 use glam::Vec3;
 use light::Light;
 use std::path::{Path, PathBuf};
-
-/// Reads the file at `path` whole, refusing anything but a regular file (a FIFO would block, a
-/// device such as /dev/zero never end) and files larger than `max` bytes. `what` names the kind
-/// of file in messages, e.g. "a scene file".
-pub(crate) fn read_bounded(path: &Path, max: u64, what: &str) -> Result<Vec<u8>> {
-    use std::io::Read;
-    let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
-    let len = check_file(path, max, what)?;
-    let file = std::fs::File::open(path).map_err(io)?;
-    // A large file (a sparse one can claim terabytes) must not abort the process by its size.
-    let mut bytes = Vec::new();
-    bytes.try_reserve_exact(len as usize).map_err(|_| {
-        refusal(path, format!("is {len} bytes, more than this machine can hold to read {what}"))
-    })?;
-    file.take(max + 1).read_to_end(&mut bytes).map_err(io)?;
-    if bytes.len() as u64 > max {
-        return Err(refusal(path, format!("grew past {max} bytes while being read")));
-    }
-    Ok(bytes)
-}
-
-/// Checks that `path` is a regular file of at most `max` bytes (`what` names it in messages) and
-/// returns its length.
-pub(crate) fn check_file(path: &Path, max: u64, what: &str) -> Result<u64> {
-    let io = |error: std::io::Error| Error::Io { path: path.to_path_buf(), error };
-    // stat first: opening a FIFO for reading would block until a writer came.
-    let meta = std::fs::metadata(path).map_err(io)?;
-    if !meta.is_file() {
-        let kind = if meta.is_dir() { "a directory" } else { "not a regular file" };
-        return Err(refusal(path, format!("is {kind}; {what} must be a regular file")));
-    }
-    if meta.len() > max {
-        return Err(refusal(
-            path,
-            format!("{} bytes is more than haze reads as {what} ({max} bytes)", meta.len()),
-        ));
-    }
-    Ok(meta.len())
-}
-
-fn refusal(path: &Path, message: String) -> Error {
-    Error::Io {
-        path: path.to_path_buf(),
-        error: std::io::Error::new(std::io::ErrorKind::InvalidInput, message),
-    }
-}
 
 /// How one grid of a grid medium is stored ([`Scene::grids`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -232,16 +187,6 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Loads and validates a scene file.
-    pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
-        load::load_file(path.as_ref())
-    }
-
-    /// Parses and validates scene text; relative file references resolve against `base_dir`.
-    pub fn from_toml(text: &str, origin: &Path, base_dir: &Path) -> Result<Scene> {
-        load::load_str(text, origin, base_dir)
-    }
-
     /// Closest surface hit along `o + t d`, 0 < t < `t_max`; the hit's `tag` indexes
     /// [`Scene::shapes`].
     #[inline]
@@ -361,10 +306,6 @@ impl Scene {
         self.source.as_deref()
     }
 }
-
-/// Largest coordinate magnitude accepted: beyond it f32 positions are too coarse for ray offsets
-/// and the BVH's quantised boxes (obvhs asserts on such extents).
-pub const MAX_COORDINATE: f32 = 1e6;
 
 /// Directions probed from the camera and from point and spot lights to check their declared
 /// medium against the medium interfaces around them.
@@ -498,5 +439,20 @@ impl Scene {
             }
         }
         Ok(())
+    }
+}
+
+impl light::media::MediaSpace for Scene {
+    fn media(&self) -> &[Medium] {
+        &self.media
+    }
+    fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+    fn medium_at(&self, p: Vec3) -> Option<u32> {
+        Scene::medium_at(self, p)
+    }
+    fn emissive_media(&self) -> &light::media::EmissiveMedia {
+        &self.emissive_media
     }
 }

@@ -195,7 +195,7 @@ fn load_mesh(path: &Path, what: &str, parse: fn(&[u8], &Path) -> Result<Mesh>) -
     if !path.exists() {
         return Err(Error::Mesh { path: path.to_path_buf(), message: "no such file".into() });
     }
-    parse(&super::read_bounded(path, MAX_OBJ_BYTES, what)?, path)
+    parse(&crate::input::read_bounded(path, MAX_OBJ_BYTES, what)?, path)
 }
 
 /// Parses the bytes of a Wavefront OBJ file (`path` names it in messages) as one triangle mesh.

@@ -11,6 +11,7 @@ mod determinism;
 mod distributed;
 mod fuzz_corpus;
 mod independent;
+mod layers;
 mod media;
 mod output;
 mod references;

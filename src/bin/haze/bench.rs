@@ -2,7 +2,7 @@
 //! a scene, as a Markdown table. Built with the `profile` feature, it also reports the time spent
 //! in volume estimates (`cargo run --release --features profile -- bench SCENE`).
 
-use crate::{Overrides, thread_pool};
+use crate::shared::{Overrides, thread_pool};
 use anyhow::{Result, bail};
 use clap::Args;
 use haze::progress::{Status, StepTimes};

@@ -1,7 +1,7 @@
 //! The lab's commands: `haze converge` (error against time) and `haze validate` (analytic media).
 
+use crate::shared::{Overrides, check_output_dir, thread_pool};
 use crate::signals::Interrupt;
-use crate::{Overrides, check_output_dir, thread_pool};
 use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -117,7 +117,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
     }
     let labels: Vec<String> = series.iter().map(|s| s.label.clone()).collect();
     let runs = args.runs;
-    let log = crate::LogLines::new(args.quiet);
+    let log = crate::shared::LogLines::new(args.quiet);
     let mut on_progress = |si: usize, run: u32, seconds: f64| {
         let done = (si as f64 * runs as f64 + run as f64) * time + seconds.min(time);
         bar.set_position((done * 1000.0) as u64);
@@ -129,9 +129,9 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
                 labels.len(),
                 labels[si],
                 run + 1,
-                crate::duration_words(done),
-                crate::duration_words(total),
-                crate::duration_words(total - done)
+                crate::shared::duration_words(done),
+                crate::shared::duration_words(total),
+                crate::shared::duration_words(total - done)
             )
         });
     };
@@ -206,7 +206,7 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
         bar.set_style(style.progress_chars("=> "));
     }
     let start = Instant::now();
-    let log = crate::LogLines::new(false);
+    let log = crate::shared::LogLines::new(false);
     let rows = pool.install(|| {
         let progress = |done, total| {
             bar.set_length(total as u64);
@@ -216,7 +216,9 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
                 let eta = if done > 0 {
                     format!(
                         ", ETA {}",
-                        crate::duration_words(elapsed / done as f64 * (total - done) as f64)
+                        crate::shared::duration_words(
+                            elapsed / done as f64 * (total - done) as f64
+                        )
                     )
                 } else {
                     String::new()

@@ -1,6 +1,6 @@
 //! `haze merge`: partial renders of one scene into the image of the union of their ranges.
 
-use crate::check_output_dir;
+use crate::shared::check_output_dir;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use haze::Partial;

@@ -42,8 +42,8 @@ pub(crate) fn run(args: RaysArgs) -> Result<()> {
     if !((1..=MAX_RAYS).contains(&args.rays) && seconds_ok) {
         bail!("--rays must lie in 1..={MAX_RAYS} and --seconds in (0, 600]");
     }
-    if let Some(&t) = args.threads.iter().find(|&&t| t == 0 || t > crate::max_threads()) {
-        bail!("--threads {t}: each count must lie in 1..={}", crate::max_threads());
+    if let Some(&t) = args.threads.iter().find(|&&t| t == 0 || t > crate::shared::max_threads()) {
+        bail!("--threads {t}: each count must lie in 1..={}", crate::shared::max_threads());
     }
     let scene = haze::Scene::load(&path)?;
     let sets = raybench::ray_sets(&scene, args.rays, args.seed);

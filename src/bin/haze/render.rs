@@ -1,7 +1,7 @@
 //! `haze render`: a scene file to OpenEXR and a PNG preview, with a progress bar.
 
+use crate::shared::{Overrides, check_output_dir, default_output, thread_pool};
 use crate::signals::Interrupt;
-use crate::{Overrides, check_output_dir, default_output, thread_pool};
 use anyhow::{Result, bail};
 use clap::Args;
 use haze::progress::Status;
@@ -168,7 +168,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let mut last_snapshot = Instant::now();
     let mut snapshot_error = None;
     let started = Instant::now();
-    let log = crate::LogLines::new(args.quiet);
+    let log = crate::shared::LogLines::new(args.quiet);
     let mut on_iteration = |s: &Status| {
         update_bar(&bar, s);
         log.report(|| log_line(s));
@@ -349,7 +349,7 @@ fn log_line(s: &Status) -> String {
         (None, Some(t)) => (format!("{last} iterations"), Some(t - i.elapsed)),
         (None, None) => (format!("{last} iterations"), None),
     };
-    let eta = left.map_or(String::new(), |l| format!(", ETA {}", crate::duration_words(l)));
+    let eta = left.map_or(String::new(), |l| format!(", ETA {}", crate::shared::duration_words(l)));
     let error = match i.settings.target_error.and_then(|_| s.error_estimate()) {
         Some(e) => format!(", error ≤ {:.2} %", 100.0 * e.upper),
         None => String::new(),

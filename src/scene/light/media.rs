@@ -27,7 +27,6 @@ use crate::math::{Rgb, luminance, sample_uniform_sphere};
 use crate::medium::grid::MAJORANT_CELL;
 use crate::medium::{Medium, blackbody};
 use crate::rng::{Purpose, Sampler};
-use crate::scene::Scene;
 use glam::{Affine3A, IVec3, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -87,6 +86,20 @@ pub(crate) struct MediumEmission {
     pub beta: Rgb,
 }
 
+/// What the emitting media need of the scene they lie in: its media, its bounds, which medium
+/// holds a point, and the emitting media themselves. [`Scene`](crate::scene::Scene) answers; the
+/// questions are asked here so that this file stands below the scene that holds its media.
+pub(crate) trait MediaSpace: Sync {
+    /// The scene's media, by id.
+    fn media(&self) -> &[Medium];
+    /// The scene's bounding box (lower and upper corner).
+    fn bounds(&self) -> (Vec3, Vec3);
+    /// The id of the medium at `p`, as the scene's medium interfaces say (a ray query).
+    fn medium_at(&self, p: Vec3) -> Option<u32>;
+    /// The scene's emitting media.
+    fn emissive_media(&self) -> &EmissiveMedia;
+}
+
 /// The emitting media of a scene, for the photon pass.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct EmissiveMedia {
@@ -97,16 +110,16 @@ pub(crate) struct EmissiveMedia {
 
 impl EmissiveMedia {
     /// The emitting media of `scene` (an empty set if none emits).
-    pub(crate) fn new(scene: &Scene) -> Self {
+    pub(crate) fn new(scene: &impl MediaSpace) -> Self {
         let mut sources = Vec::new();
-        for (id, m) in scene.media.iter().enumerate() {
+        for (id, m) in scene.media().iter().enumerate() {
             if !m.emits() {
                 continue;
             }
             let id = id as u32;
             let (region, power) = match m {
                 Medium::Homogeneous(h) => {
-                    let (lo, hi) = scene.bounds;
+                    let (lo, hi) = scene.bounds();
                     let size = (hi - lo).max(Vec3::ZERO);
                     let volume = size.x * size.y * size.z;
                     // The share of the box in the medium, on a regular grid of probes.
@@ -155,7 +168,11 @@ impl EmissiveMedia {
 
     /// Draws a photon from the emitting media (9 uniforms from `s`); `None` if the point drawn
     /// emits nothing (outside the medium, a cold voxel, or rejected).
-    pub(crate) fn sample(&self, scene: &Scene, s: &mut Sampler) -> Option<MediumEmission> {
+    pub(crate) fn sample(
+        &self,
+        scene: &impl MediaSpace,
+        s: &mut Sampler,
+    ) -> Option<MediumEmission> {
         let u_pick = (s.next_f32(), s.next_f64(), s.next_f32());
         let u_pos = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
         let u_accept = s.next_f32();
@@ -174,7 +191,11 @@ impl EmissiveMedia {
     /// that no draw is wasted. `None` if it emits nothing there. Whether a grid's point lies in
     /// its medium, as the scene's interfaces say, is left to [`EmitterPoint::inside`]: a ray
     /// query, which resampling needs for the chosen point only.
-    pub(crate) fn sample_candidate(&self, scene: &Scene, s: &mut Sampler) -> Option<EmitterPoint> {
+    pub(crate) fn sample_candidate(
+        &self,
+        scene: &impl MediaSpace,
+        s: &mut Sampler,
+    ) -> Option<EmitterPoint> {
         let u_pick = (s.next_f32(), s.next_f64(), s.next_f32());
         let u_pos = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32());
         self.point(scene, u_pick, u_pos, None)
@@ -189,7 +210,7 @@ impl EmissiveMedia {
     /// tracing points that emit little.
     fn point(
         &self,
-        scene: &Scene,
+        scene: &impl MediaSpace,
         u_pick: (f32, f64, f32),
         u_pos: Vec3,
         u_accept: Option<f32>,
@@ -233,7 +254,7 @@ impl EmissiveMedia {
         if known_inside && scene.medium_at(p) != Some(source.medium) {
             return None;
         }
-        let m = &scene.media[source.medium as usize];
+        let m = &scene.media()[source.medium as usize];
         let f = m.sigma_a(p) * m.le(p);
         if f.max_element() <= 0.0 {
             return None;
@@ -280,15 +301,15 @@ pub(crate) struct EmitterPool {
 impl EmitterPool {
     /// The pool of iteration `iteration` under `seed`: entry k from its own stream, so the pool
     /// is the same whatever the threads (empty if no medium emits).
-    pub(crate) fn new(scene: &Scene, seed: u64, iteration: u64) -> Self {
-        if scene.emissive_media.is_empty() {
+    pub(crate) fn new(scene: &impl MediaSpace, seed: u64, iteration: u64) -> Self {
+        if scene.emissive_media().is_empty() {
             return Self::default();
         }
         let points = (0..POOL_POINTS as u64)
             .into_par_iter()
             .map(|k| {
                 let mut s = Sampler::new(seed, Purpose::EmitterPool, iteration, k);
-                scene.emissive_media.sample_candidate(scene, &mut s)
+                scene.emissive_media().sample_candidate(scene, &mut s)
             })
             .collect();
         Self { points }
@@ -296,8 +317,8 @@ impl EmitterPool {
 
     /// A pool of `n` points drawn from `s` (for tests that redraw it per estimate).
     #[cfg(test)]
-    pub(crate) fn drawn(scene: &Scene, n: usize, s: &mut Sampler) -> Self {
-        Self { points: (0..n).map(|_| scene.emissive_media.sample_candidate(scene, s)).collect() }
+    pub(crate) fn drawn(scene: &impl MediaSpace, n: usize, s: &mut Sampler) -> Self {
+        Self { points: (0..n).map(|_| scene.emissive_media().sample_candidate(scene, s)).collect() }
     }
 
     /// A uniformly chosen entry (one uniform from `s`); `None` if it drew nothing or the pool
@@ -327,7 +348,7 @@ pub(crate) struct EmitterPoint {
 impl EmitterPoint {
     /// True if the point lies in its medium as the scene's interfaces say (a ray query): a point
     /// outside emits nothing there.
-    pub(crate) fn inside(&self, scene: &Scene) -> bool {
+    pub(crate) fn inside(&self, scene: &impl MediaSpace) -> bool {
         self.known_inside || scene.medium_at(self.p) == Some(self.medium)
     }
 }
@@ -456,7 +477,7 @@ fn blackbody_bound(t: &crate::medium::vdb::TemperatureField, t0: f32, t1: f32) -
 mod tests {
     use super::*;
     use crate::rng::Purpose;
-    use crate::scene::{CameraDesc, Material, MediumDesc, SceneBuilder, ShapeDesc};
+    use crate::scene::{CameraDesc, Material, MediumDesc, Scene, SceneBuilder, ShapeDesc};
     use std::path::Path;
 
     fn media(name: &str) -> std::path::PathBuf {

@@ -1,0 +1,82 @@
+//! What an iteration makes: its frame of pixel estimates, rendered row by row, and the seconds
+//! each step took.
+
+use crate::estimate::Estimate;
+use crate::math::Rgb;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// One iteration's image and the kernel bias of its photon estimates (zero for the path tracer),
+/// row-major, top row first.
+pub(crate) struct Frame {
+    /// Radiance.
+    pub value: Vec<Rgb>,
+    /// The estimated kernel bias of `value` ([`Estimate`]).
+    pub bias: Vec<Rgb>,
+}
+
+impl Frame {
+    /// A black frame of `pixels` pixels.
+    pub(crate) fn new(pixels: usize) -> Self {
+        Frame { value: vec![Rgb::ZERO; pixels], bias: vec![Rgb::ZERO; pixels] }
+    }
+}
+
+/// Seconds one iteration spent in each step (zero for steps the method does not have).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepTimes {
+    /// The photon-guiding pilot, which runs once, before the first iteration's photon pass (zero
+    /// in every other iteration).
+    pub pilot: f64,
+    /// Tracing light paths (the photon pass without the map builds).
+    pub photon_trace: f64,
+    /// Building the surface photon map.
+    pub surface_map: f64,
+    /// Building the volume photon map (beam map or point grid).
+    pub volume_map: f64,
+    /// The camera pass: eye paths with their estimates (for the path tracer, the whole iteration).
+    pub camera: f64,
+    /// With the `profile` feature, the part of `camera` spent in volume estimates (thread time
+    /// divided by the thread count); `None` without it.
+    pub volume_estimates: Option<f64>,
+}
+
+impl StepTimes {
+    /// The whole iteration.
+    pub fn total(&self) -> f64 {
+        self.pilot + self.photon_trace + self.surface_map + self.volume_map + self.camera
+    }
+}
+
+/// Fills `frame` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over rows.
+/// Non-finite samples (value or bias) become black without bias and are counted in `nonfinite`.
+/// Returns `false` if `stop` was raised before every row was done.
+pub(crate) fn render_rows(
+    frame: &mut Frame,
+    width: usize,
+    stop: &AtomicBool,
+    nonfinite: &AtomicU64,
+    radiance: impl Fn(u32, u32) -> Estimate + Sync,
+) -> bool {
+    let rows = frame.value.par_chunks_mut(width).zip(frame.bias.par_chunks_mut(width));
+    rows.enumerate().for_each(|(y, (row, bias))| {
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
+        for (x, (px, b)) in row.iter_mut().zip(bias).enumerate() {
+            // Pixel by pixel: in a pathological medium one pixel can take milliseconds, and a
+            // stopped iteration is discarded anyway.
+            if stop.load(Ordering::Relaxed) {
+                return;
+            }
+            let e = radiance(x as u32, y as u32);
+            (*px, *b) = if e.value.is_finite() && e.bias.is_finite() {
+                (e.value, e.bias)
+            } else {
+                nonfinite.fetch_add(1, Ordering::Relaxed);
+                (Rgb::ZERO, Rgb::ZERO)
+            };
+        }
+    });
+    !stop.load(Ordering::Relaxed)
+}
