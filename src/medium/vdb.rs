@@ -791,26 +791,7 @@ impl VdbMedium {
         rate: f32,
         s: &mut Sampler,
     ) -> Rgb {
-        if self.coloured() {
-            let mut tr = Rgb::ONE;
-            let complete = self.tentative(o, d, t_max, rate, s, |t, sigma_t, mu, s| {
-                let tint = self.tint_at(o + d * t);
-                tr = (tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO);
-                tr *= roulette(tr.max_element(), s);
-                tr.max_element() > 0.0
-            });
-            return if complete { tr } else { Rgb::ZERO };
-        }
-        let mut tr = 1.0f32;
-        let complete = self.tentative(o, d, t_max, rate, s, |_, sigma_t, mu, s| {
-            tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
-            tr *= roulette(tr, s);
-            tr > 0.0
-        });
-        if !complete {
-            return Rgb::ZERO;
-        }
-        Rgb::splat(tr.max(0.0))
+        self.ratio_tracking(o, d, t_max, rate, s, |_, _| {}).unwrap_or(Rgb::ZERO)
     }
 
     /// One ratio-tracking run over [0, t_max) at `rate` times the majorants, kept as a step
@@ -824,30 +805,49 @@ impl VdbMedium {
         s: &mut Sampler,
     ) -> TransmittanceSteps {
         let mut steps = TransmittanceSteps::new();
-        let complete = if self.coloured() {
-            let mut tr = Rgb::ONE;
-            self.tentative(o, d, t_max, rate, s, |t, sigma_t, mu, s| {
-                let tint = self.tint_at(o + d * t);
-                tr = (tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO);
-                tr *= roulette(tr.max_element(), s);
-                steps.push((t, tr));
-                tr.max_element() > 0.0
-            })
-        } else {
-            let mut tr = 1.0f32;
-            self.tentative(o, d, t_max, rate, s, |t, sigma_t, mu, s| {
-                tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
-                tr *= roulette(tr, s);
-                steps.push((t, Rgb::splat(tr)));
-                tr > 0.0
-            })
-        };
-        if !complete {
+        let complete = self.ratio_tracking(o, d, t_max, rate, s, |t, tr| steps.push((t, tr)));
+        if complete.is_none() {
             // Opaque from where the walk stopped.
             let last = steps.last().map_or(0.0, |&(t, _)| t);
             steps.push((last, Rgb::ZERO));
         }
         steps
+    }
+
+    /// The one ratio-tracking walk behind [`Self::transmittance_at_rate`] and
+    /// [`Self::transmittance_steps`]: tentative collisions at `rate` times the majorants, each
+    /// multiplying the running transmittance by 1 − σ_t/μ̄ (per channel where the extinction is
+    /// coloured, in one channel otherwise) and then by the Russian roulette's factor
+    /// ([`roulette`]); `step(t, T)` sees the transmittance after each. Returns the final
+    /// transmittance, or `None` if the walk was cut at the step cap.
+    fn ratio_tracking(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        rate: f32,
+        s: &mut Sampler,
+        mut step: impl FnMut(f32, Rgb),
+    ) -> Option<Rgb> {
+        if self.coloured() {
+            let mut tr = Rgb::ONE;
+            let complete = self.tentative(o, d, t_max, rate, s, |t, sigma_t, mu, s| {
+                let tint = self.tint_at(o + d * t);
+                tr = (tr * (Rgb::ONE - tint * (sigma_t / mu))).max(Rgb::ZERO);
+                tr *= roulette(tr.max_element(), s);
+                step(t, tr);
+                tr.max_element() > 0.0
+            });
+            return complete.then_some(tr);
+        }
+        let mut tr = 1.0f32;
+        let complete = self.tentative(o, d, t_max, rate, s, |t, sigma_t, mu, s| {
+            tr = (tr * (1.0 - sigma_t / mu)).max(0.0);
+            tr *= roulette(tr, s);
+            step(t, Rgb::splat(tr));
+            tr > 0.0
+        });
+        complete.then_some(Rgb::splat(tr.max(0.0)))
     }
 }
 
