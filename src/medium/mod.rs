@@ -14,6 +14,7 @@
 
 pub mod blackbody;
 pub(crate) mod blocks;
+pub(crate) mod emission;
 pub mod grid;
 pub mod homogeneous;
 pub mod phase;

@@ -24,19 +24,12 @@
 //! in advance: an [`EmitterPool`] per iteration, from which the estimates pick their candidates.
 
 use crate::math::{Rgb, luminance, sample_uniform_sphere};
-use crate::medium::grid::MAJORANT_CELL;
-use crate::medium::{Medium, blackbody};
+use crate::medium::Medium;
+use crate::medium::emission::EmissionCells;
 use crate::rng::{Purpose, Sampler};
-use glam::{Affine3A, IVec3, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
-
-/// Share of a grid's summed emission bounds added to its power estimate (the emission at voxel
-/// centres), so that a grid whose centres happen not to emit is still a source.
-const GUARD: f32 = 1e-3;
-
-/// Interpolation cells in one majorant cell.
-const PER_CELL: usize = (MAJORANT_CELL * MAJORANT_CELL * MAJORANT_CELL) as usize;
 
 /// Points used to estimate a homogeneous medium's power (its share of the scene's box).
 const POWER_PROBES: u32 = 16;
@@ -46,24 +39,8 @@ const POWER_PROBES: u32 = 16;
 enum Region {
     /// Uniform in a scene-space box.
     Box { lo: Vec3, size: Vec3 },
-    /// Interpolation cells of a grid, grouped by majorant cell: majorant cell `ids[k]` with
-    /// probability (cdf[k] − cdf[k−1]) / total, then its interpolation cell j (x fastest) with
-    /// probability by the cumulative bounds `local[512 k ..][j]`, then a uniform point in it.
-    Cells {
-        /// Index space → scene.
-        to_scene: Affine3A,
-        /// Index-space position of majorant cell (0, 0, 0)'s corner, and the majorant cell count
-        /// along each axis.
-        lo: Vec3,
-        cells: IVec3,
-        ids: Vec<u32>,
-        /// In f64: with millions of cells a small cell's weight must not vanish in the sum.
-        cdf: Vec<f64>,
-        /// Per listed majorant cell, its interpolation cells' cumulative bounds.
-        local: Vec<f32>,
-        /// Scene-space volume of one interpolation cell.
-        voxel_volume: f32,
-    },
+    /// Interpolation cells of a grid by their bounds on the emission.
+    Cells(EmissionCells),
 }
 
 /// One emitting medium.
@@ -138,7 +115,10 @@ impl EmissiveMedia {
                     let power = 4.0 * PI * luminance(h.sigma_a * h.emission) * volume * share;
                     (Region::Box { lo, size }, power)
                 }
-                Medium::Vdb(v) => grid_cells(m, v),
+                Medium::Vdb(v) => {
+                    let (cells, power) = EmissionCells::of(v);
+                    (Region::Cells(cells), power)
+                }
             };
             if power > 0.0 && power.is_finite() {
                 sources.push(Source { medium: id, region, power });
@@ -224,24 +204,9 @@ impl EmissiveMedia {
             Region::Box { lo, size } => {
                 (*lo + *size * u_pos, 1.0 / (size.x * size.y * size.z), None)
             }
-            Region::Cells { to_scene, lo, cells, ids, cdf, local, voxel_volume } => {
-                let total = *cdf.last()?;
-                let j = cdf.partition_point(|&c| c <= u_cell * total).min(cdf.len() - 1);
-                let weight = cdf[j] - if j == 0 { 0.0 } else { cdf[j - 1] };
-                let (weight, total) = (weight as f32, total as f32);
-                let id = ids[j] as i32;
-                let cell = IVec3::new(id % cells.x, id / cells.x % cells.y, id / cells.x / cells.y);
-                // An interpolation cell of it by its bound.
-                let sums = &local[j * PER_CELL..(j + 1) * PER_CELL];
-                let sum = sums[PER_CELL - 1];
-                let v = sums.partition_point(|&c| c <= u_voxel * sum).min(PER_CELL - 1);
-                let bound = sums[v] - if v == 0 { 0.0 } else { sums[v - 1] };
-                let (m, v) = (MAJORANT_CELL, v as i32);
-                let offset = IVec3::new(v % m, v / m % m, v / m / m);
-                let q = *lo + (cell * m + offset).as_vec3() + u_pos;
-                let pdf = weight / total * (bound / sum) / voxel_volume;
-                // `bound`: the cell's bound on the emission's mean channel at any of its points.
-                (to_scene.transform_point3(q), pdf, Some(bound))
+            Region::Cells(cells) => {
+                let (p, pdf, bound) = cells.pick(u_cell, u_voxel, u_pos)?;
+                (p, pdf, Some(bound))
             }
         };
         if !(pdf_v > 0.0 && pdf_v.is_finite()) {
@@ -353,131 +318,12 @@ impl EmitterPoint {
     }
 }
 
-/// The interpolation cells of a grid medium with their bounds (module docs), and the medium's
-/// estimated power: the emission at voxel centres, plus [`GUARD`] of the bounds' sum.
-fn grid_cells(m: &Medium, v: &crate::medium::vdb::VdbMedium) -> (Region, f32) {
-    let (grid, to_index, cells, lo, majorant) = v.layout();
-    let to_scene = to_index.inverse();
-    let cell = MAJORANT_CELL;
-    let voxel_volume = to_scene.matrix3.determinant().abs();
-    // σ_a per unit density: its largest channel bounds the mean channel of σ_a ⊙ L_e with L_e's.
-    let sigma_a = v.sigma_a_per_density().max_element();
-    let constant = luminance(v.emission()).max(0.0);
-    // Fields on the density's voxels are bounded voxel by voxel, others by their maxima.
-    let temperature = v.temperature();
-    let shared_temperature = temperature.filter(|t| t.to_index == to_index);
-    let global_temperature = temperature.filter(|t| t.to_index != to_index).map_or(0.0, |t| {
-        let (a, b) = (t.scaled(0.0), t.scaled(t.grid.max_density));
-        blackbody_bound(t, a.min(b), a.max(b))
-    });
-    let colour = v.emission_grid();
-    let shared_colour = colour.filter(|c| c.to_index.iter().all(|&t| t == to_index));
-    let global_colour = colour.filter(|c| c.to_index.iter().any(|&t| t != to_index));
-    let global_colour = global_colour.map_or(0.0, |c| c.bound());
-    let count = (cells.x * cells.y * cells.z) as usize;
-    let n = (cell + 1) as usize;
-    // Per majorant cell: the emission at its voxel centres, and its interpolation cells' bounds.
-    let per_cell: Vec<(f32, Option<Vec<f32>>)> = (0..count)
-        .into_par_iter()
-        .map(|i| {
-            let i = i as i32;
-            let c = IVec3::new(i % cells.x, i / cells.x % cells.y, i / cells.x / cells.y);
-            // A cell without density emits nothing (and costs no lookups).
-            if majorant.get(c) <= 0.0 {
-                return (0.0, None);
-            }
-            let base = (lo + (c * cell).as_vec3()).as_ivec3();
-            // The (cell + 1)³ voxels the cell's interpolation reads: density, the temperature's
-            // emission bound range, the colour grids' mean channel.
-            let at = |x: usize, y: usize, z: usize| x + n * (y + n * z);
-            let mut density = vec![0.0f32; n * n * n];
-            let mut temp = vec![0.0f32; if shared_temperature.is_some() { n * n * n } else { 0 }];
-            let mut rgb = vec![0.0f32; if shared_colour.is_some() { n * n * n } else { 0 }];
-            let mut centres = 0.0f32;
-            for z in 0..n {
-                for y in 0..n {
-                    for x in 0..n {
-                        let q = base + IVec3::new(x as i32, y as i32, z as i32);
-                        let k = at(x, y, z);
-                        density[k] = grid.voxel(q);
-                        if let Some(t) = shared_temperature {
-                            temp[k] = t.scaled(t.grid.voxel(q));
-                        }
-                        if let Some(c) = shared_colour {
-                            let v = c.grids.each_ref().map(|g| g.voxel(q));
-                            rgb[k] = v.iter().sum::<f32>() / 3.0 * c.scale;
-                        }
-                        if density[k] > 0.0 && x < n - 1 && y < n - 1 && z < n - 1 {
-                            let p = to_scene.transform_point3(q.as_vec3());
-                            centres += luminance(m.sigma_a(p) * m.le(p));
-                        }
-                    }
-                }
-            }
-            let mut sums = vec![0.0f32; PER_CELL];
-            let mut total = 0.0f32;
-            let m = cell as usize;
-            for z in 0..m {
-                for y in 0..m {
-                    for x in 0..m {
-                        let corners =
-                            (0..8).map(|k| at(x + (k & 1), y + (k >> 1 & 1), z + (k >> 2)));
-                        let (mut d, mut t0, mut t1, mut e) = (0.0f32, f32::MAX, f32::MIN, 0.0f32);
-                        for k in corners {
-                            d = d.max(density[k]);
-                            if !temp.is_empty() {
-                                (t0, t1) = (t0.min(temp[k]), t1.max(temp[k]));
-                            }
-                            if !rgb.is_empty() {
-                                e = e.max(rgb[k]);
-                            }
-                        }
-                        let mut le = constant + global_temperature + global_colour;
-                        if let Some(t) = shared_temperature {
-                            le += blackbody_bound(t, t0, t1);
-                        }
-                        // The colour's mean channel is trilinear in its corners' means.
-                        le += e;
-                        let b = if d > 0.0 { d * sigma_a * le } else { 0.0 };
-                        total += b;
-                        sums[x + m * (y + m * z)] = total;
-                    }
-                }
-            }
-            let bounds = (total > 0.0 && total.is_finite()).then_some(sums);
-            (centres, bounds)
-        })
-        .collect();
-    let (mut ids, mut cdf, mut local, mut total, mut centres) =
-        (Vec::new(), Vec::new(), Vec::new(), 0.0f64, 0.0f64);
-    for (i, (sum, bounds)) in per_cell.into_iter().enumerate() {
-        centres += sum as f64;
-        if let Some(b) = bounds {
-            total += b[PER_CELL - 1] as f64;
-            ids.push(i as u32);
-            cdf.push(total);
-            local.extend_from_slice(&b);
-        }
-    }
-    let power = centres + GUARD as f64 * total;
-    let power = (4.0 * PI as f64 * power * voxel_volume as f64) as f32;
-    (Region::Cells { to_scene, lo, cells, ids, cdf, local, voxel_volume }, power)
-}
-
-/// A bound on the mean channel of a temperature field's emission where its scaled temperature T'
-/// lies in [t0, t1]: none at or below the cut-off.
-fn blackbody_bound(t: &crate::medium::vdb::TemperatureField, t0: f32, t1: f32) -> f32 {
-    if t1 <= t.cutoff {
-        return 0.0;
-    }
-    blackbody::max_mean_channel(t0.max(t.cutoff), t1) * t.blackbody_scale
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::rng::Purpose;
     use crate::scene::{CameraDesc, Material, MediumDesc, Scene, SceneBuilder, ShapeDesc};
+    use glam::IVec3;
     use std::path::Path;
 
     fn media(name: &str) -> std::path::PathBuf {
@@ -607,10 +453,8 @@ mod tests {
         let bias = [0, 1, 2].map(|c| (fine[c] - coarse[c]).abs());
         assert!(fine[0] > 0.0 && bias[0] < 0.05 * fine[0], "{fine:?} vs {coarse:?}");
         let emitting = EmissiveMedia::new(&scene);
-        let Region::Cells { cdf, voxel_volume, .. } = &emitting.sources[0].region else {
-            unreachable!()
-        };
-        let spike = 4.0 * PI * *cdf.last().unwrap() as f32 * voxel_volume * (1.0 + 1e-3);
+        let Region::Cells(cells) = &emitting.sources[0].region else { unreachable!() };
+        let spike = 4.0 * PI * cells.bound_sum() as f32 * cells.voxel_volume * (1.0 + 1e-3);
         let mut largest = 0.0f32;
         assert_channel_means_within("fire", (11, Purpose::Photon, 10_000), fine, bias, |s| {
             emitting.sample(&scene, s).map_or(Rgb::ZERO, |e| {
