@@ -299,153 +299,211 @@ impl Partial {
     /// [`read`]: Self::read
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Partial> {
         let err = |m: String| part_err(path, m);
-        let mut at = 0usize;
-        let mut take = |n: u64, what: &str| -> Result<&[u8]> {
-            let end = (at as u64).checked_add(n).filter(|&e| e <= bytes.len() as u64);
-            let end =
-                end.ok_or_else(|| err(format!("truncated partial render (in its {what})")))?;
-            let s = &bytes[at..end as usize];
-            at = end as usize;
-            Ok(s)
-        };
-        if take(8, "magic")? != MAGIC {
+        let mut r = Bytes { bytes, at: 0, path };
+        if r.take(8, "magic")? != MAGIC {
             return Err(err("not a haze partial render (bad magic number)".into()));
         }
-        let u32_of = |b: &[u8]| u32::from_le_bytes(b.try_into().unwrap_or_default());
-        let u64_of = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap_or_default());
-        let version = u32_of(take(4, "version")?);
+        let version = u32_of(r.take(4, "version")?);
         if version != VERSION && version != 1 {
             return Err(err(format!(
                 "partial render format {version}; this haze reads formats 1 to {VERSION}"
             )));
         }
-        let n = u64_of(take(8, "header")?);
+        let n = u64_of(r.take(8, "header")?);
         if n > MAX_HEADER {
             return Err(err(format!("header of {n} bytes (corrupt file)")));
         }
-        let header = std::str::from_utf8(take(n, "header")?)
+        let header = std::str::from_utf8(r.take(n, "header")?)
             .map_err(|_| err("header is not UTF-8 (corrupt file)".into()))?
             .to_string();
-        let n = u64_of(take(8, "state")?);
-        let state = take(n, "state")?.to_vec();
-        // toml's own Display is a multi-line diagnostic: one line, with the header's line.
-        let t: toml::Table = header.parse().map_err(|e: toml::de::Error| {
-            let line = e.span().map(|s| header[..s.start.min(header.len())].lines().count().max(1));
-            let at = line.map(|l| format!(" line {l}:")).unwrap_or_default();
-            err(format!("header:{at} {} (corrupt file)", e.message().trim().replace('\n', " ")))
-        })?;
-        let int = |k: &str| -> Result<u64> {
-            t.get(k).and_then(|v| v.as_integer()).filter(|&v| v >= 0).map(|v| v as u64).ok_or_else(
-                || match t.get(k) {
-                    None => err(format!("header: `{k}` missing")),
-                    Some(v) => err(format!(
-                        "header: `{k}` is {}; it must be a whole number, at least 0",
-                        crate::error::quote(&v.to_string())
-                    )),
-                },
-            )
-        };
-        // A number that must be finite and non-negative (radii, seconds): an integer is taken.
-        let float = |k: &str| -> Result<f64> {
-            let v = match t.get(k) {
-                None => return Err(err(format!("header: `{k}` missing"))),
-                Some(toml::Value::Float(f)) => *f,
-                Some(toml::Value::Integer(i)) => *i as f64,
-                Some(other) => {
-                    let kind = other.type_str();
-                    return Err(err(format!("header: `{k}` is a {kind}, not a number")));
-                }
-            };
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(err(format!(
-                    "header: `{k}` is {v}; it must be finite and non-negative"
-                )));
-            }
-            Ok(v)
-        };
-        let (width, height) = (int("width")?, int("height")?);
+        let n = u64_of(r.take(8, "state")?);
+        let state = r.take(n, "state")?.to_vec();
+        let h = Header::parse(&header, path)?;
+        let (width, height) = (h.int("width")?, h.int("height")?);
         let pixels = width.checked_mul(height).filter(|&p| p > 0 && p <= crate::scene::MAX_PIXELS);
         let pixels =
             pixels.ok_or_else(|| err(format!("header: impossible size {width}x{height}")))?;
-        let mut read_sums = |what: &str| -> Result<Vec<[i128; 3]>> {
-            let raw = take(pixels * 48, what)?;
-            Ok(raw
-                .chunks_exact(48)
-                .map(|px| {
-                    let c = |k: usize| {
-                        i128::from_le_bytes(px[16 * k..16 * k + 16].try_into().unwrap_or_default())
-                    };
-                    [c(0), c(1), c(2)]
-                })
-                .collect())
-        };
-        let sum = read_sums("sums")?;
-        let sum_sq = read_sums("sums of squares")?;
-        let has_bias = match t.get("bias_sums") {
+        let sum = r.sums(pixels, "sums")?;
+        let sum_sq = r.sums(pixels, "sums of squares")?;
+        let has_bias = match h.t.get("bias_sums") {
             None if version == 1 => false,
             Some(toml::Value::Boolean(b)) => *b,
             _ => return Err(err("header: `bias_sums` missing or not true/false".into())),
         };
         let bias = if has_bias {
-            Some([read_sums("bias sums")?, read_sums("bias sums of squares")?])
+            Some([r.sums(pixels, "bias sums")?, r.sums(pixels, "bias sums of squares")?])
         } else {
             None
         };
-        let stored: [u8; 32] = take(32, "checksum")?.try_into().unwrap_or_default();
-        if at != bytes.len() {
-            return Err(err(format!("{} bytes after the end (corrupt file)", bytes.len() - at)));
+        let stored: [u8; 32] = r.take(32, "checksum")?.try_into().unwrap_or_default();
+        if r.at != bytes.len() {
+            return Err(err(format!("{} bytes after the end (corrupt file)", bytes.len() - r.at)));
         }
-        let settings_table = t
-            .get("settings")
-            .and_then(|v| v.as_table())
-            .cloned()
-            .ok_or_else(|| err("header: `settings` missing".into()))?;
-        let options: RenderOptions = toml::Value::Table(settings_table)
-            .try_into()
-            .map_err(|e: toml::de::Error| err(format!("header: settings: {}", e.message())))?;
-        let settings = RenderSettings { iterations: None, time_limit: None, ..Default::default() }
-            .with(&options);
-        let fp = t.get("fingerprint").and_then(|v| v.as_str()).unwrap_or_default();
-        let mut fingerprint = [0u8; 32];
-        if fp.len() != 64 || !fp.bytes().all(|b| b.is_ascii_hexdigit()) {
-            return Err(err("header: `fingerprint` missing or invalid".into()));
-        }
-        for (k, b) in fingerprint.iter_mut().enumerate() {
-            *b = u8::from_str_radix(&fp[2 * k..2 * k + 2], 16).unwrap_or_default();
-        }
-        let first_iteration = int("first_iteration")?;
-        if first_iteration == 0 {
-            return Err(err("header: `first_iteration` must be at least 1".into()));
-        }
-        let iterations = int("iterations")?;
-        let info = RenderInfo {
-            settings,
-            first_iteration,
-            iterations,
-            light_paths: int("light_paths")?,
-            initial_radius: float("initial_radius")?,
-            radius: float("radius")?,
-            volume_initial_radius: float("volume_initial_radius")?,
-            volume_radius: float("volume_radius")?,
-            elapsed: float("elapsed_seconds")?,
-            scene: t.get("scene").and_then(|v| v.as_str()).map(PathBuf::from),
-            nonfinite_samples: int("nonfinite_samples")?,
-            truncated_trackings: int("truncated_trackings")?,
-        };
+        let settings = h.settings()?;
+        let fingerprint = h.fingerprint()?;
+        let info = h.info(settings)?;
         let film = Film::from_sums(
             width as u32,
             height as u32,
             [sum, sum_sq],
             bias,
-            iterations,
-            int("saturated_values")?,
+            info.iterations,
+            h.int("saturated_values")?,
         );
-        let output = t.get("output").and_then(|v| v.as_str()).map(PathBuf::from);
+        let output = h.t.get("output").and_then(|v| v.as_str()).map(PathBuf::from);
         let state = (!state.is_empty()).then_some(state);
         let part = Partial { info, film, fingerprint, state, output };
         if part.checksum(&header, part.state.as_deref().unwrap_or(&[])) != stored {
             return Err(err("checksum mismatch: the file is corrupt".into()));
         }
         Ok(part)
+    }
+}
+
+fn u32_of(b: &[u8]) -> u32 {
+    u32::from_le_bytes(b.try_into().unwrap_or_default())
+}
+
+fn u64_of(b: &[u8]) -> u64 {
+    u64::from_le_bytes(b.try_into().unwrap_or_default())
+}
+
+/// A partial render's bytes, read from the front; every read past the end is an error naming
+/// the part it was reading.
+struct Bytes<'a> {
+    bytes: &'a [u8],
+    at: usize,
+    path: &'a Path,
+}
+
+impl<'a> Bytes<'a> {
+    fn take(&mut self, n: u64, what: &str) -> Result<&'a [u8]> {
+        let end = (self.at as u64).checked_add(n).filter(|&e| e <= self.bytes.len() as u64);
+        let end = end.ok_or_else(|| {
+            part_err(self.path, format!("truncated partial render (in its {what})"))
+        })?;
+        let s = &self.bytes[self.at..end as usize];
+        self.at = end as usize;
+        Ok(s)
+    }
+
+    /// One layer of per-pixel sums: three i128 per pixel.
+    fn sums(&mut self, pixels: u64, what: &str) -> Result<Vec<[i128; 3]>> {
+        let raw = self.take(pixels * 48, what)?;
+        Ok(raw
+            .chunks_exact(48)
+            .map(|px| {
+                let c = |k: usize| {
+                    i128::from_le_bytes(px[16 * k..16 * k + 16].try_into().unwrap_or_default())
+                };
+                [c(0), c(1), c(2)]
+            })
+            .collect())
+    }
+}
+
+/// A partial render's TOML header, each field read with an error naming it.
+struct Header<'a> {
+    t: toml::Table,
+    path: &'a Path,
+}
+
+impl<'a> Header<'a> {
+    fn parse(header: &str, path: &'a Path) -> Result<Self> {
+        // toml's own Display is a multi-line diagnostic: one line, with the header's line.
+        let t: toml::Table = header.parse().map_err(|e: toml::de::Error| {
+            let line = e.span().map(|s| header[..s.start.min(header.len())].lines().count().max(1));
+            let at = line.map(|l| format!(" line {l}:")).unwrap_or_default();
+            let message = e.message().trim().replace('\n', " ");
+            part_err(path, format!("header:{at} {message} (corrupt file)"))
+        })?;
+        Ok(Header { t, path })
+    }
+
+    fn err(&self, m: String) -> crate::Error {
+        part_err(self.path, m)
+    }
+
+    /// A whole number, at least 0.
+    fn int(&self, k: &str) -> Result<u64> {
+        let t = &self.t;
+        t.get(k).and_then(|v| v.as_integer()).filter(|&v| v >= 0).map(|v| v as u64).ok_or_else(
+            || match t.get(k) {
+                None => self.err(format!("header: `{k}` missing")),
+                Some(v) => self.err(format!(
+                    "header: `{k}` is {}; it must be a whole number, at least 0",
+                    crate::error::quote(&v.to_string())
+                )),
+            },
+        )
+    }
+
+    /// A number that must be finite and non-negative (radii, seconds): an integer is taken.
+    fn float(&self, k: &str) -> Result<f64> {
+        let v = match self.t.get(k) {
+            None => return Err(self.err(format!("header: `{k}` missing"))),
+            Some(toml::Value::Float(f)) => *f,
+            Some(toml::Value::Integer(i)) => *i as f64,
+            Some(other) => {
+                let kind = other.type_str();
+                return Err(self.err(format!("header: `{k}` is a {kind}, not a number")));
+            }
+        };
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(
+                self.err(format!("header: `{k}` is {v}; it must be finite and non-negative"))
+            );
+        }
+        Ok(v)
+    }
+
+    /// The render settings, without a goal (a partial's goal is its caller's).
+    fn settings(&self) -> Result<RenderSettings> {
+        let settings_table = self
+            .t
+            .get("settings")
+            .and_then(|v| v.as_table())
+            .cloned()
+            .ok_or_else(|| self.err("header: `settings` missing".into()))?;
+        let options: RenderOptions = toml::Value::Table(settings_table)
+            .try_into()
+            .map_err(|e: toml::de::Error| self.err(format!("header: settings: {}", e.message())))?;
+        Ok(RenderSettings { iterations: None, time_limit: None, ..Default::default() }
+            .with(&options))
+    }
+
+    /// The scene's fingerprint, 64 hexadecimal digits.
+    fn fingerprint(&self) -> Result<[u8; 32]> {
+        let fp = self.t.get("fingerprint").and_then(|v| v.as_str()).unwrap_or_default();
+        let mut fingerprint = [0u8; 32];
+        if fp.len() != 64 || !fp.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(self.err("header: `fingerprint` missing or invalid".into()));
+        }
+        for (k, b) in fingerprint.iter_mut().enumerate() {
+            *b = u8::from_str_radix(&fp[2 * k..2 * k + 2], 16).unwrap_or_default();
+        }
+        Ok(fingerprint)
+    }
+
+    /// How the partial was rendered, with `settings`.
+    fn info(&self, settings: RenderSettings) -> Result<RenderInfo> {
+        let first_iteration = self.int("first_iteration")?;
+        if first_iteration == 0 {
+            return Err(self.err("header: `first_iteration` must be at least 1".into()));
+        }
+        Ok(RenderInfo {
+            settings,
+            first_iteration,
+            iterations: self.int("iterations")?,
+            light_paths: self.int("light_paths")?,
+            initial_radius: self.float("initial_radius")?,
+            radius: self.float("radius")?,
+            volume_initial_radius: self.float("volume_initial_radius")?,
+            volume_radius: self.float("volume_radius")?,
+            elapsed: self.float("elapsed_seconds")?,
+            scene: self.t.get("scene").and_then(|v| v.as_str()).map(PathBuf::from),
+            nonfinite_samples: self.int("nonfinite_samples")?,
+            truncated_trackings: self.int("truncated_trackings")?,
+        })
     }
 }

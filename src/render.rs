@@ -89,51 +89,12 @@ pub fn render_partial(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<Partial> {
-    settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
-    check_radii(scene, settings)?;
-    if let Some(r) = settings.target_region {
-        let [w, h] = scene.camera.resolution;
-        r.check_within(w, h).map_err(|m| Error::Settings(format!("target_region: {m}")))?;
-    }
-    if let Some(total) = physical_memory() {
-        let need = memory_estimate(scene, settings);
-        if need > total {
-            return Err(Error::Settings(format!(
-                "photons = {} would need about {:.1} GB per iteration (measured on {PILOT_PATHS} \
-                 light paths of this scene), more than this machine's {:.1} GB; lower `photons`",
-                settings.photons,
-                need as f64 / 1e9,
-                total as f64 / 1e9
-            )));
-        }
-    }
+    check_render(scene, settings)?;
     let fingerprint = scene.fingerprint();
     let mut method = Method::new(scene, settings)?;
     let [width, height] = scene.camera.resolution;
-    let (first, mut film, before) = match start {
-        Start::At(0) => return Err(Error::Settings("iterations are numbered from 1".into())),
-        Start::At(a) => {
-            if a > 1 && settings.progression == Progression::Original {
-                return Err(Error::Settings(
-                    "the original PPM (progression = \"original\") keeps per-pixel statistics \
-                     that depend on every earlier iteration: it cannot render a range that does \
-                     not start at 1 (it can resume)"
-                        .into(),
-                ));
-            }
-            (a, method.film(width, height), None)
-        }
-        Start::Resume(p) => {
-            let p = *p;
-            p.check_matches(&fingerprint, [width, height], settings).map_err(|m| {
-                Error::Settings(format!("cannot resume from this partial render: {m}"))
-            })?;
-            if let Some(state) = &p.state {
-                method.load_state(state).map_err(Error::Settings)?;
-            }
-            (p.info.first_iteration, p.film.clone(), Some(p.info))
-        }
-    };
+    let (first, mut film, before) =
+        starting_film(start, &mut method, scene, settings, &fingerprint)?;
     let start = Instant::now();
     let mut frame = crate::integrator::frame::Frame::new((width * height) as usize);
     let nonfinite = AtomicU64::new(0);
@@ -196,6 +157,66 @@ pub fn render_partial(
     });
     let info = info(&method, iteration, &nonfinite);
     Ok(Partial { info, film, fingerprint, state: method.save_state(), output: None })
+}
+
+/// Everything a render refuses before any work: invalid settings, impossible radii, a target
+/// region outside the image, more memory per iteration than the machine has.
+fn check_render(scene: &Scene, settings: &RenderSettings) -> Result<()> {
+    settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
+    check_radii(scene, settings)?;
+    if let Some(r) = settings.target_region {
+        let [w, h] = scene.camera.resolution;
+        r.check_within(w, h).map_err(|m| Error::Settings(format!("target_region: {m}")))?;
+    }
+    if let Some(total) = physical_memory() {
+        let need = memory_estimate(scene, settings);
+        if need > total {
+            return Err(Error::Settings(format!(
+                "photons = {} would need about {:.1} GB per iteration (measured on {PILOT_PATHS} \
+                 light paths of this scene), more than this machine's {:.1} GB; lower `photons`",
+                settings.photons,
+                need as f64 / 1e9,
+                total as f64 / 1e9
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Where a render starts: its first iteration, the film it adds to (a resumed partial's, or a
+/// new one) and, for a resume, how the partial was made.
+fn starting_film(
+    start: Start,
+    method: &mut Method,
+    scene: &Scene,
+    settings: &RenderSettings,
+    fingerprint: &[u8; 32],
+) -> Result<(u64, Film, Option<RenderInfo>)> {
+    let [width, height] = scene.camera.resolution;
+    Ok(match start {
+        Start::At(0) => return Err(Error::Settings("iterations are numbered from 1".into())),
+        Start::At(a) => {
+            if a > 1 && settings.progression == Progression::Original {
+                return Err(Error::Settings(
+                    "the original PPM (progression = \"original\") keeps per-pixel statistics \
+                     that depend on every earlier iteration: it cannot render a range that does \
+                     not start at 1 (it can resume)"
+                        .into(),
+                ));
+            }
+            (a, method.film(width, height), None)
+        }
+        Start::Resume(p) => {
+            let p = *p;
+            p.check_matches(fingerprint, [width, height], settings).map_err(|m| {
+                Error::Settings(format!("cannot resume from this partial render: {m}"))
+            })?;
+            if let Some(state) = &p.state {
+                method.load_state(state).map_err(Error::Settings)?;
+            }
+            (p.info.first_iteration, p.film.clone(), Some(p.info))
+        }
+    })
 }
 
 struct RaiseOnDrop<'a>(&'a AtomicBool);

@@ -82,7 +82,6 @@ impl Reference {
     /// Reads an OpenEXR reference: the first layer's R, G and B channels, and the layer named
     /// `variance` if there is one. Errors name the file.
     pub fn load(path: &Path) -> Result<Self> {
-        use exr::meta::attribute::AttributeValue;
         use exr::prelude::*;
         let err = |m: String| crate::Error::Output { path: path.to_path_buf(), message: m };
         if !path.is_file() {
@@ -95,23 +94,7 @@ impl Reference {
         // it reads a pixel, so a small file declaring a vast image would abort the process.
         let meta = exr::meta::MetaData::read_from_file(path, false)
             .map_err(|e| err(format!("cannot read as an RGB OpenEXR reference: {e}")))?;
-        // Every layer is allocated before any is read: their sizes are bounded together.
-        let mut total = 0u64;
-        for header in meta.headers.iter() {
-            let size = header.layer_size;
-            let pixels = (size.width() as u64).saturating_mul(size.height() as u64);
-            total = total.saturating_add(pixels);
-            if total > 4 * crate::scene::camera::MAX_PIXELS {
-                return Err(err(format!(
-                    "its header declares a {} × {} image{}, more than haze reads (4 layers of \
-                     {} pixels)",
-                    size.width(),
-                    size.height(),
-                    if meta.headers.len() > 1 { " among its layers" } else { "" },
-                    crate::scene::camera::MAX_PIXELS
-                )));
-            }
-        }
+        check_declared_size(&meta, path)?;
         let image = read()
             .no_deep_data()
             .largest_resolution_level()
@@ -151,36 +134,8 @@ impl Reference {
             .filter(|l| (l.size.width(), l.size.height()) == (w, h))
             .map(|l| l.channel_data.pixels.1.clone())
             .filter(|b| b.iter().flatten().all(|c| c.is_finite()));
-        for (what, data) in [("pixel", Some(&pixels)), ("variance", variance.as_ref())] {
-            if let Some(i) = data
-                .and_then(|d| d.iter().position(|p| p.iter().any(|c| !c.is_finite() || *c < 0.0)))
-            {
-                return Err(err(format!(
-                    "{what} ({}, {}) is negative or not finite; a reference must be a finite radiance image",
-                    i % w,
-                    i / w
-                )));
-            }
-        }
-        let text = |key: &str| {
-            first.attributes.other.iter().find_map(|(k, v)| match v {
-                AttributeValue::Text(t) if k == key => Some(t.to_string()),
-                _ => None,
-            })
-        };
-        let description = text("haze:reference");
-        // Settings are recorded in the scene file's syntax (strings quoted); older files wrote
-        // bare names under other keys.
-        let setting = |new: &str, old: &str| {
-            text(new).map(|v| v.trim_matches('"').to_string()).or_else(|| text(old))
-        };
-        let made_by = match (
-            setting("haze:render.integrator", "haze:integrator"),
-            setting("haze:render.seed", "haze:seed"),
-        ) {
-            (Some(i), Some(s)) => i.parse().ok().zip(s.parse().ok()),
-            _ => None,
-        };
+        check_finite(&pixels, variance.as_deref(), w, path)?;
+        let (description, made_by) = made_by(&first.attributes);
         // Photon-mapping iterations are not identically distributed, so their spread overstates
         // the noise of the mean; a variance layer in such a file (older haze wrote one) is ignored.
         let variance_layer = variance.clone();
@@ -196,6 +151,81 @@ impl Reference {
             made_by,
         })
     }
+}
+
+/// The image sizes an OpenEXR header declares, refused beyond 4 layers of the largest image
+/// haze renders: the reader allocates every layer before it reads a pixel.
+fn check_declared_size(meta: &exr::meta::MetaData, path: &Path) -> Result<()> {
+    let err = |m: String| crate::Error::Output { path: path.to_path_buf(), message: m };
+    // Every layer is allocated before any is read: their sizes are bounded together.
+    let mut total = 0u64;
+    for header in meta.headers.iter() {
+        let size = header.layer_size;
+        let pixels = (size.width() as u64).saturating_mul(size.height() as u64);
+        total = total.saturating_add(pixels);
+        if total > 4 * crate::scene::camera::MAX_PIXELS {
+            return Err(err(format!(
+                "its header declares a {} × {} image{}, more than haze reads (4 layers of \
+                 {} pixels)",
+                size.width(),
+                size.height(),
+                if meta.headers.len() > 1 { " among its layers" } else { "" },
+                crate::scene::camera::MAX_PIXELS
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a reference whose pixels or variances are negative or not finite, naming the first.
+fn check_finite(
+    pixels: &[[f32; 3]],
+    variance: Option<&[[f32; 3]]>,
+    w: usize,
+    path: &Path,
+) -> Result<()> {
+    let err = |m: String| crate::Error::Output { path: path.to_path_buf(), message: m };
+    for (what, data) in [("pixel", Some(pixels)), ("variance", variance)] {
+        if let Some(i) =
+            data.and_then(|d| d.iter().position(|p| p.iter().any(|c| !c.is_finite() || *c < 0.0)))
+        {
+            return Err(err(format!(
+                "{what} ({}, {}) is negative or not finite; a reference must be a finite radiance image",
+                i % w,
+                i / w
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// What a reference's header says of it: its `haze:reference` description, and the integrator
+/// and seed it was rendered with (in the scene file's syntax; older files wrote bare names under
+/// other keys).
+fn made_by(
+    attributes: &exr::meta::header::LayerAttributes,
+) -> (Option<String>, Option<(Integrator, u64)>) {
+    use exr::meta::attribute::AttributeValue;
+    let text = |key: &str| {
+        attributes.other.iter().find_map(|(k, v)| match v {
+            AttributeValue::Text(t) if k == key => Some(t.to_string()),
+            _ => None,
+        })
+    };
+    let description = text("haze:reference");
+    // Settings are recorded in the scene file's syntax (strings quoted); older files wrote
+    // bare names under other keys.
+    let setting = |new: &str, old: &str| {
+        text(new).map(|v| v.trim_matches('"').to_string()).or_else(|| text(old))
+    };
+    let made_by = match (
+        setting("haze:render.integrator", "haze:integrator"),
+        setting("haze:render.seed", "haze:seed"),
+    ) {
+        (Some(i), Some(s)) => i.parse().ok().zip(s.parse().ok()),
+        _ => None,
+    };
+    (description, made_by)
 }
 
 pub use crate::region::Region;

@@ -146,9 +146,9 @@ pub fn critical_z(tiles: usize, significance: f64) -> f64 {
     normal.inverse_cdf(1.0 - per_tile / 2.0)
 }
 
-/// Compares `a` and `b` tile by tile (tiles of `tile`×`tile` pixels) at family-wise level
-/// `significance` (see the module documentation).
-pub fn compare(a: &NoisyImage, b: &NoisyImage, tile: u32, significance: f64) -> Result<Comparison> {
+/// Refuses images of different sizes, layers of the wrong length, an empty tile or a
+/// significance outside (0, 1).
+fn check_inputs(a: &NoisyImage, b: &NoisyImage, tile: u32, significance: f64) -> Result<()> {
     let bad = |m: String| Error::Invalid {
         path: Default::default(),
         line: None,
@@ -179,20 +179,31 @@ pub fn compare(a: &NoisyImage, b: &NoisyImage, tile: u32, significance: f64) -> 
             "tile {tile} and significance {significance}: need a tile of at least 1 and 0 < α < 1"
         )));
     }
-    let w = a.width as usize;
-    let z_of = |difference: f64, se: f64, allowance: f64| {
-        let excess = (difference.abs() - allowance).max(0.0);
-        if !difference.is_finite() || !se.is_finite() {
-            // A non-finite pixel (NaN, ∞) fails its tile whatever else it holds.
-            f64::INFINITY
-        } else {
-            match (excess > 0.0, se > 0.0) {
-                (false, _) => 0.0,
-                (true, true) => excess / se * difference.signum(),
-                (true, false) => f64::INFINITY * difference.signum(),
-            }
+    Ok(())
+}
+
+/// A tile's difference in standard errors beyond its kernel-bias allowance (0 within it; ±∞ for
+/// a non-finite difference or noise, or a difference beyond the allowance without noise).
+fn z_of(difference: f64, se: f64, allowance: f64) -> f64 {
+    let excess = (difference.abs() - allowance).max(0.0);
+    if !difference.is_finite() || !se.is_finite() {
+        // A non-finite pixel (NaN, ∞) fails its tile whatever else it holds.
+        f64::INFINITY
+    } else {
+        match (excess > 0.0, se > 0.0) {
+            (false, _) => 0.0,
+            (true, true) => excess / se * difference.signum(),
+            (true, false) => f64::INFINITY * difference.signum(),
         }
-    };
+    }
+}
+
+/// Compares `a` and `b` tile by tile (tiles of `tile`×`tile` pixels) at family-wise level
+/// `significance` (see the module documentation).
+pub fn compare(a: &NoisyImage, b: &NoisyImage, tile: u32, significance: f64) -> Result<Comparison> {
+    check_inputs(a, b, tile, significance)?;
+    let n = (a.width * a.height) as usize;
+    let w = a.width as usize;
     let pooled = [0, 1, 2].map(|c| {
         let (mut diff, mut var, mut allowance) = (0.0, 0.0, 0.0);
         for i in 0..n {

@@ -22,7 +22,7 @@ use super::analytic::{
 use crate::error::Result;
 use crate::progress::Silent;
 use crate::scene::Scene;
-use crate::settings::{Integrator, Kernel, VolumeEstimate};
+use crate::settings::{Integrator, Kernel, RenderSettings, VolumeEstimate};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -1414,32 +1414,10 @@ fn run_cases(
                 }
             }
             let (mut xs, mut stated, mut covered) = (Vec::new(), Vec::new(), (0u32, 0u32));
-            let mut settings = scene.settings.clone();
-            settings.iterations = Some(effort.iterations);
-            settings.time_limit = None;
-            settings.photons = effort.photons * case.photons_scale;
-            settings.max_bounces = case.max_bounces;
-            settings.integrator = integrator;
-            settings.volume_estimate = estimate;
-            settings.volume_radius = Some(case.radius(estimate));
-            // The exact expectation of a kernel estimate: the mean over the iterations of its
-            // expectation at each iteration's radius (the image is the mean of the iterations).
-            let kernel = (!next_event).then_some(case.expected.as_ref()).flatten().and_then(|f| {
-                let n = effort.iterations;
-                let r1 = case.radius(estimate);
-                let (alpha, dim) = (settings.volume_alpha, settings.volume_dimension);
-                (1..=n)
-                    .map(|i| {
-                        f(
-                            integrator,
-                            estimate,
-                            settings.kernel,
-                            crate::estimate::radius::radius(i, r1, alpha, dim),
-                        )
-                    })
-                    .sum::<Option<f64>>()
-                    .map(|sum| sum / n as f64)
-            });
+            let settings = case_settings(&scene, case, &effort, integrator, estimate);
+            let kernel = (!next_event)
+                .then(|| kernel_expectation(case, &settings, effort.iterations))
+                .flatten();
             let expected = kernel.unwrap_or(case.reference);
             for seed in 0..effort.seeds {
                 let mut s = settings.clone();
@@ -1487,6 +1465,48 @@ fn run_cases(
         }
     }
     Ok(rows)
+}
+
+/// The settings of one row's renders: the case's scene with the row's effort, bounces,
+/// integrator, volume estimate and fixed volume radius.
+fn case_settings(
+    scene: &Scene,
+    case: &Case,
+    effort: &Effort,
+    integrator: Integrator,
+    estimate: VolumeEstimate,
+) -> RenderSettings {
+    let mut settings = scene.settings.clone();
+    settings.iterations = Some(effort.iterations);
+    settings.time_limit = None;
+    settings.photons = effort.photons * case.photons_scale;
+    settings.max_bounces = case.max_bounces;
+    settings.integrator = integrator;
+    settings.volume_estimate = estimate;
+    settings.volume_radius = Some(case.radius(estimate));
+    settings
+}
+
+/// The exact expectation of a kernel estimate, where the case knows it: the mean over the
+/// iterations of its expectation at each iteration's radius (the image is the mean of the
+/// iterations).
+fn kernel_expectation(case: &Case, settings: &RenderSettings, iterations: u64) -> Option<f64> {
+    let (integrator, estimate) = (settings.integrator, settings.volume_estimate);
+    let f = case.expected.as_ref()?;
+    let n = iterations;
+    let r1 = case.radius(estimate);
+    let (alpha, dim) = (settings.volume_alpha, settings.volume_dimension);
+    (1..=n)
+        .map(|i| {
+            f(
+                integrator,
+                estimate,
+                settings.kernel,
+                crate::estimate::radius::radius(i, r1, alpha, dim),
+            )
+        })
+        .sum::<Option<f64>>()
+        .map(|sum| sum / n as f64)
 }
 
 /// An image's own 95 % bound on the error of its mean value: 1.707 |b̂| + t σ̂ (see

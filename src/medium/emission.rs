@@ -9,8 +9,10 @@
 //! for each majorant cell with any emission), so the grid's layout stays private to the medium.
 
 use super::blackbody;
+use super::blocks::Blocked;
+use super::grid::DensityGrid;
 use super::grid::MAJORANT_CELL;
-use super::vdb::{TemperatureField, VdbMedium};
+use super::vdb::{ColourField, TemperatureField, VdbMedium};
 use crate::math::luminance;
 use glam::{Affine3A, IVec3, Vec3};
 use rayon::prelude::*;
@@ -50,7 +52,6 @@ impl EmissionCells {
     pub(crate) fn of(v: &VdbMedium) -> (Self, f32) {
         let (grid, to_index, cells, lo, majorant) = v.layout();
         let to_scene = to_index.inverse();
-        let cell = MAJORANT_CELL;
         let voxel_volume = to_scene.matrix3.determinant().abs();
         // σ_a per unit density: its largest channel bounds the mean channel of σ_a ⊙ L_e with
         // L_e's.
@@ -67,80 +68,24 @@ impl EmissionCells {
         let shared_colour = colour.filter(|c| c.to_index.iter().all(|&t| t == to_index));
         let global_colour = colour.filter(|c| c.to_index.iter().any(|&t| t != to_index));
         let global_colour = global_colour.map_or(0.0, |c| c.bound());
+        let fields = Fields {
+            v,
+            grid,
+            to_scene,
+            lo,
+            majorant,
+            temperature: shared_temperature,
+            colour: shared_colour,
+            uniform: [constant, global_temperature, global_colour],
+            sigma_a,
+        };
         let count = (cells.x * cells.y * cells.z) as usize;
-        let n = (cell + 1) as usize;
         // Per majorant cell: the emission at its voxel centres, and its interpolation cells' bounds.
         let per_cell: Vec<(f32, Option<Vec<f32>>)> = (0..count)
             .into_par_iter()
             .map(|i| {
                 let i = i as i32;
-                let c = IVec3::new(i % cells.x, i / cells.x % cells.y, i / cells.x / cells.y);
-                // A cell without density emits nothing (and costs no lookups).
-                if majorant.get(c) <= 0.0 {
-                    return (0.0, None);
-                }
-                let base = (lo + (c * cell).as_vec3()).as_ivec3();
-                // The (cell + 1)³ voxels the cell's interpolation reads: density, the temperature's
-                // emission bound range, the colour grids' mean channel.
-                let at = |x: usize, y: usize, z: usize| x + n * (y + n * z);
-                let mut density = vec![0.0f32; n * n * n];
-                let mut temp =
-                    vec![0.0f32; if shared_temperature.is_some() { n * n * n } else { 0 }];
-                let mut rgb = vec![0.0f32; if shared_colour.is_some() { n * n * n } else { 0 }];
-                let mut centres = 0.0f32;
-                for z in 0..n {
-                    for y in 0..n {
-                        for x in 0..n {
-                            let q = base + IVec3::new(x as i32, y as i32, z as i32);
-                            let k = at(x, y, z);
-                            density[k] = grid.voxel(q);
-                            if let Some(t) = shared_temperature {
-                                temp[k] = t.scaled(t.grid.voxel(q));
-                            }
-                            if let Some(c) = shared_colour {
-                                let v = c.grids.each_ref().map(|g| g.voxel(q));
-                                rgb[k] = v.iter().sum::<f32>() / 3.0 * c.scale;
-                            }
-                            if density[k] > 0.0 && x < n - 1 && y < n - 1 && z < n - 1 {
-                                let p = to_scene.transform_point3(q.as_vec3());
-                                centres += luminance(v.sigma_a(p) * v.le(p));
-                            }
-                        }
-                    }
-                }
-                let mut sums = vec![0.0f32; PER_CELL];
-                let mut total = 0.0f32;
-                let m = cell as usize;
-                for z in 0..m {
-                    for y in 0..m {
-                        for x in 0..m {
-                            let corners =
-                                (0..8).map(|k| at(x + (k & 1), y + (k >> 1 & 1), z + (k >> 2)));
-                            let (mut d, mut t0, mut t1, mut e) =
-                                (0.0f32, f32::MAX, f32::MIN, 0.0f32);
-                            for k in corners {
-                                d = d.max(density[k]);
-                                if !temp.is_empty() {
-                                    (t0, t1) = (t0.min(temp[k]), t1.max(temp[k]));
-                                }
-                                if !rgb.is_empty() {
-                                    e = e.max(rgb[k]);
-                                }
-                            }
-                            let mut le = constant + global_temperature + global_colour;
-                            if let Some(t) = shared_temperature {
-                                le += blackbody_bound(t, t0, t1);
-                            }
-                            // The colour's mean channel is trilinear in its corners' means.
-                            le += e;
-                            let b = if d > 0.0 { d * sigma_a * le } else { 0.0 };
-                            total += b;
-                            sums[x + m * (y + m * z)] = total;
-                        }
-                    }
-                }
-                let bounds = (total > 0.0 && total.is_finite()).then_some(sums);
-                (centres, bounds)
+                fields.cell(IVec3::new(i % cells.x, i / cells.x % cells.y, i / cells.x / cells.y))
             })
             .collect();
         let (mut ids, mut cdf, mut local, mut total, mut centres) =
@@ -188,6 +133,126 @@ impl EmissionCells {
         let pdf = weight / total * (bound / sum) / self.voxel_volume;
         // `bound`: the cell's bound on the emission's mean channel at any of its points.
         Some((self.to_scene.transform_point3(q), pdf, bound))
+    }
+}
+
+/// What bounding a grid's emission cell by cell reads: the medium, its density grid and layout,
+/// the emission fields that share the density's voxels, and the bounds that hold everywhere.
+struct Fields<'a> {
+    v: &'a VdbMedium,
+    grid: &'a DensityGrid,
+    to_scene: Affine3A,
+    lo: Vec3,
+    majorant: &'a Blocked<f32>,
+    /// A temperature field on the density's voxels, bounded voxel by voxel.
+    temperature: Option<&'a TemperatureField>,
+    /// Colour grids on the density's voxels, bounded voxel by voxel.
+    colour: Option<&'a ColourField>,
+    /// Bounds on L_e's mean channel everywhere: the constant emission, a temperature field's
+    /// and colour grids' on other voxels (by their maxima).
+    uniform: [f32; 3],
+    /// σ_a's largest channel per unit density.
+    sigma_a: f32,
+}
+
+/// The values at the (8 + 1)³ voxels that one majorant cell's interpolation reads: density,
+/// scaled temperature, the colour grids' mean channel; and the emission at its voxel centres.
+struct Corners {
+    density: Vec<f32>,
+    temp: Vec<f32>,
+    rgb: Vec<f32>,
+    centres: f32,
+}
+
+/// Voxels along an edge of the corner block.
+const N: usize = (MAJORANT_CELL + 1) as usize;
+
+/// Index of corner voxel (x, y, z) in a [`Corners`] block.
+#[inline]
+fn at(x: usize, y: usize, z: usize) -> usize {
+    x + N * (y + N * z)
+}
+
+impl Fields<'_> {
+    /// Majorant cell `c`: the emission at its voxel centres, and its interpolation cells'
+    /// cumulative bounds (none if they sum to nothing).
+    fn cell(&self, c: IVec3) -> (f32, Option<Vec<f32>>) {
+        // A cell without density emits nothing (and costs no lookups).
+        if self.majorant.get(c) <= 0.0 {
+            return (0.0, None);
+        }
+        let corners = self.corners((self.lo + (c * MAJORANT_CELL).as_vec3()).as_ivec3());
+        let (sums, total) = self.bounds(&corners);
+        let bounds = (total > 0.0 && total.is_finite()).then_some(sums);
+        (corners.centres, bounds)
+    }
+
+    /// The (cell + 1)³ voxels from `base` that a cell's interpolation reads: density, the
+    /// temperature's emission bound range, the colour grids' mean channel.
+    fn corners(&self, base: IVec3) -> Corners {
+        let n = N;
+        let mut density = vec![0.0f32; n * n * n];
+        let mut temp = vec![0.0f32; if self.temperature.is_some() { n * n * n } else { 0 }];
+        let mut rgb = vec![0.0f32; if self.colour.is_some() { n * n * n } else { 0 }];
+        let mut centres = 0.0f32;
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let q = base + IVec3::new(x as i32, y as i32, z as i32);
+                    let k = at(x, y, z);
+                    density[k] = self.grid.voxel(q);
+                    if let Some(t) = self.temperature {
+                        temp[k] = t.scaled(t.grid.voxel(q));
+                    }
+                    if let Some(c) = self.colour {
+                        let v = c.grids.each_ref().map(|g| g.voxel(q));
+                        rgb[k] = v.iter().sum::<f32>() / 3.0 * c.scale;
+                    }
+                    if density[k] > 0.0 && x < n - 1 && y < n - 1 && z < n - 1 {
+                        let p = self.to_scene.transform_point3(q.as_vec3());
+                        centres += luminance(self.v.sigma_a(p) * self.v.le(p));
+                    }
+                }
+            }
+        }
+        Corners { density, temp, rgb, centres }
+    }
+
+    /// The cumulative bounds of a majorant cell's interpolation cells (x fastest) from its
+    /// corner values, and their sum.
+    fn bounds(&self, corners: &Corners) -> (Vec<f32>, f32) {
+        let Corners { density, temp, rgb, .. } = corners;
+        let [constant, global_temperature, global_colour] = self.uniform;
+        let mut sums = vec![0.0f32; PER_CELL];
+        let mut total = 0.0f32;
+        let m = MAJORANT_CELL as usize;
+        for z in 0..m {
+            for y in 0..m {
+                for x in 0..m {
+                    let corners = (0..8).map(|k| at(x + (k & 1), y + (k >> 1 & 1), z + (k >> 2)));
+                    let (mut d, mut t0, mut t1, mut e) = (0.0f32, f32::MAX, f32::MIN, 0.0f32);
+                    for k in corners {
+                        d = d.max(density[k]);
+                        if !temp.is_empty() {
+                            (t0, t1) = (t0.min(temp[k]), t1.max(temp[k]));
+                        }
+                        if !rgb.is_empty() {
+                            e = e.max(rgb[k]);
+                        }
+                    }
+                    let mut le = constant + global_temperature + global_colour;
+                    if let Some(t) = self.temperature {
+                        le += blackbody_bound(t, t0, t1);
+                    }
+                    // The colour's mean channel is trilinear in its corners' means.
+                    le += e;
+                    let b = if d > 0.0 { d * self.sigma_a * le } else { 0.0 };
+                    total += b;
+                    sums[x + m * (y + m * z)] = total;
+                }
+            }
+        }
+        (sums, total)
     }
 }
 

@@ -656,7 +656,9 @@ struct Census {
 
 /// The copy of the grid in `layout` (chosen by [`Layout::Auto`]'s rule when asked), checked: no
 /// voxel missing, values finite and non-negative, within the layouts' limits.
-fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<DensityGrid> {
+/// The first pass over a grid's tree: its bounds, active voxels, largest value and the bricks
+/// it stores; refused if its values or its count are wrong.
+fn census(read: &ReadGrid, path: &Path, name: &str) -> Result<Census> {
     let err = |m: String| volume_error(path, m);
     let mut c = Census {
         lo: IVec3::MAX,
@@ -699,6 +701,12 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
              must be finite and non-negative"
         )));
     }
+    Ok(c)
+}
+
+fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<DensityGrid> {
+    let err = |m: String| volume_error(path, m);
+    let mut c = census(read, path, name)?;
     // In 64 bits: far-apart voxels would overflow i32 extents and their u64 product.
     let extent = (c.hi.as_i64vec3() - c.lo.as_i64vec3()) + glam::I64Vec3::ONE;
     let dense_voxels = (extent.x as u128) * (extent.y as u128) * (extent.z as u128);
@@ -732,17 +740,7 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
                 )));
             }
             let dims = extent.as_ivec3();
-            let mut data = vec![0.0f32; dense_voxels as usize];
-            let lo = c.lo;
-            for_each_item(read, path, name, |p, edge, v| {
-                for z in 0..edge {
-                    for y in 0..edge {
-                        let q = p + IVec3::new(0, y, z) - lo;
-                        let row = (q.x + dims.x * (q.y + dims.y * q.z)) as usize;
-                        data[row..row + edge as usize].fill(v);
-                    }
-                }
-            })?;
+            let data = fill_dense(read, path, name, c.lo, dims, dense_voxels as usize)?;
             (c.lo, dims, Storage::Dense(data))
         }
         Layout::Bricks => {
@@ -753,59 +751,9 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
                     extent.x, extent.y, extent.z
                 )));
             }
-            let count = brick_count.as_ivec3();
-            // Blocks of the table aligned to 8 bricks in index space, as OpenVDB's tiles of 128³
-            // voxels and more are: such a tile fills whole blocks.
-            let offset = (brick_lo >> 3) & 7;
-            let mut b = Bricks {
-                table: Blocked::new(count, offset, EMPTY),
-                constants: Vec::new(),
-                pool: Vec::with_capacity(c.stored.len() * BRICK_VOXELS),
-            };
+            let stored = c.stored.len();
             drop(std::mem::take(&mut c.stored));
-            for_each_item(read, path, name, |p, edge, v| {
-                let q = p - brick_lo;
-                if edge >= BRICK {
-                    // A tile: whole bricks of one value, stored once; whole blocks of the table
-                    // where it covers them.
-                    let n = edge / BRICK;
-                    let entry = CONSTANT | b.constants.len() as u32;
-                    b.constants.push(v);
-                    let first = q >> 3;
-                    let step = if n % 8 == 0 && b.table.starts_block(first) { 8 } else { 1 };
-                    for z in (0..n).step_by(step) {
-                        for y in (0..n).step_by(step) {
-                            for x in (0..n).step_by(step) {
-                                let k = first + IVec3::new(x, y, z);
-                                if step == 8 {
-                                    b.table.fill_block(k, entry);
-                                } else {
-                                    b.table.set(k, entry);
-                                }
-                            }
-                        }
-                    }
-                } else {
-                    let k = q >> 3;
-                    let mut e = b.table.get(k);
-                    if e == EMPTY {
-                        e = (b.pool.len() / BRICK_VOXELS) as u32;
-                        b.table.set(k, e);
-                        b.pool.resize(b.pool.len() + BRICK_VOXELS, 0.0);
-                    }
-                    if e & CONSTANT != 0 {
-                        // A voxel in a brick a tile covers (two root nodes at one origin in a
-                        // corrupt file): the brick becomes the tile's value with the voxel
-                        // written over it, as the dense layout stores it.
-                        let c = b.constants[(e & !CONSTANT) as usize];
-                        e = (b.pool.len() / BRICK_VOXELS) as u32;
-                        b.table.set(k, e);
-                        b.pool.resize(b.pool.len() + BRICK_VOXELS, c);
-                    }
-                    let l = q & (BRICK - 1);
-                    b.pool[e as usize * BRICK_VOXELS + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
-                }
-            })?;
+            let b = fill_bricks(read, path, name, brick_lo, brick_count.as_ivec3(), stored)?;
             let dims = (c.hi - brick_lo) + IVec3::ONE;
             (brick_lo, dims, Storage::Bricks(b))
         }
@@ -820,6 +768,93 @@ fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<Den
         active_voxels: c.voxels,
         active_box: (c.lo, c.hi),
     })
+}
+
+/// The second pass for the dense layout: every voxel of the `dims` box from `lo`, zero where the
+/// tree has none.
+fn fill_dense(
+    read: &ReadGrid,
+    path: &Path,
+    name: &str,
+    lo: IVec3,
+    dims: IVec3,
+    voxels: usize,
+) -> Result<Vec<f32>> {
+    let mut data = vec![0.0f32; voxels];
+    for_each_item(read, path, name, |p, edge, v| {
+        for z in 0..edge {
+            for y in 0..edge {
+                let q = p + IVec3::new(0, y, z) - lo;
+                let row = (q.x + dims.x * (q.y + dims.y * q.z)) as usize;
+                data[row..row + edge as usize].fill(v);
+            }
+        }
+    })?;
+    Ok(data)
+}
+
+/// The second pass for the bricks layout: the table of `count` bricks from `brick_lo`, tiles as
+/// constant bricks, `stored` bricks of voxels in the pool.
+fn fill_bricks(
+    read: &ReadGrid,
+    path: &Path,
+    name: &str,
+    brick_lo: IVec3,
+    count: IVec3,
+    stored: usize,
+) -> Result<Bricks> {
+    // Blocks of the table aligned to 8 bricks in index space, as OpenVDB's tiles of 128³
+    // voxels and more are: such a tile fills whole blocks.
+    let offset = (brick_lo >> 3) & 7;
+    let mut b = Bricks {
+        table: Blocked::new(count, offset, EMPTY),
+        constants: Vec::new(),
+        pool: Vec::with_capacity(stored * BRICK_VOXELS),
+    };
+    for_each_item(read, path, name, |p, edge, v| {
+        let q = p - brick_lo;
+        if edge >= BRICK {
+            // A tile: whole bricks of one value, stored once; whole blocks of the table
+            // where it covers them.
+            let n = edge / BRICK;
+            let entry = CONSTANT | b.constants.len() as u32;
+            b.constants.push(v);
+            let first = q >> 3;
+            let step = if n % 8 == 0 && b.table.starts_block(first) { 8 } else { 1 };
+            for z in (0..n).step_by(step) {
+                for y in (0..n).step_by(step) {
+                    for x in (0..n).step_by(step) {
+                        let k = first + IVec3::new(x, y, z);
+                        if step == 8 {
+                            b.table.fill_block(k, entry);
+                        } else {
+                            b.table.set(k, entry);
+                        }
+                    }
+                }
+            }
+        } else {
+            let k = q >> 3;
+            let mut e = b.table.get(k);
+            if e == EMPTY {
+                e = (b.pool.len() / BRICK_VOXELS) as u32;
+                b.table.set(k, e);
+                b.pool.resize(b.pool.len() + BRICK_VOXELS, 0.0);
+            }
+            if e & CONSTANT != 0 {
+                // A voxel in a brick a tile covers (two root nodes at one origin in a
+                // corrupt file): the brick becomes the tile's value with the voxel
+                // written over it, as the dense layout stores it.
+                let c = b.constants[(e & !CONSTANT) as usize];
+                e = (b.pool.len() / BRICK_VOXELS) as u32;
+                b.table.set(k, e);
+                b.pool.resize(b.pool.len() + BRICK_VOXELS, c);
+            }
+            let l = q & (BRICK - 1);
+            b.pool[e as usize * BRICK_VOXELS + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
+        }
+    })?;
+    Ok(b)
 }
 
 /// `v.floor()` without a call into libm (x86-64's baseline has no rounding instruction, and the

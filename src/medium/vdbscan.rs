@@ -516,30 +516,36 @@ fn values<'b>(
     c.take_into(length, "values", block)?;
     let block: &'b [u8] = block;
     if matches!(codec, Codec::Blosc) && count > 0 {
-        // The 16-byte Blosc header: decompressed size at 4..8, compressed size at 12..16, which
-        // c-blosc 1.x trusts over the buffer's real length (a larger one made it read past the
-        // buffer: found by the `vdb` fuzz target). Zip streams are bounded by their decoder.
-        let word = |k: usize| {
-            block.get(k..k + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
-        };
-        // Offsets name the block's size field, as before the block was read.
-        let fail = |what: String| format!("corrupt file at byte {:#x}: {what}", at - 8);
-        if word(12).is_none_or(|n| n < 16 || n as usize > block.len()) {
-            return Err(fail(match word(12) {
-                Some(n) => format!("a Blosc block of {} bytes says it holds {n}", block.len()),
-                None => format!("a Blosc block of {} bytes has no complete header", block.len()),
-            }));
-        }
-        if word(4) != Some(bytes as u32) {
-            return Err(fail(match word(4) {
-                Some(n) => format!(
-                    "a compressed block says it expands to {n} bytes, but its {count} values need {bytes}"
-                ),
-                None => format!("a compressed block has no complete header ({count} values)"),
-            }));
-        }
+        check_blosc_header(block, at, count, bytes)?;
     }
     Ok(Values { n, count, size, scalar, codec, block })
+}
+
+/// Checks the 16-byte Blosc header of a block read at byte `at` for `count` values of `bytes`
+/// bytes in all: decompressed size at 4..8, compressed size at 12..16, which c-blosc 1.x trusts
+/// over the buffer's real length (a larger one made it read past the buffer: found by the `vdb`
+/// fuzz target). Zip streams are bounded by their decoder.
+fn check_blosc_header(block: &[u8], at: u64, count: usize, bytes: u64) -> Result<(), ScanError> {
+    let word = |k: usize| {
+        block.get(k..k + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
+    };
+    // Offsets name the block's size field, as before the block was read.
+    let fail = |what: String| format!("corrupt file at byte {:#x}: {what}", at - 8);
+    if word(12).is_none_or(|n| n < 16 || n as usize > block.len()) {
+        return Err(fail(match word(12) {
+            Some(n) => format!("a Blosc block of {} bytes says it holds {n}", block.len()),
+            None => format!("a Blosc block of {} bytes has no complete header", block.len()),
+        }));
+    }
+    if word(4) != Some(bytes as u32) {
+        return Err(fail(match word(4) {
+            Some(n) => format!(
+                "a compressed block says it expands to {n} bytes, but its {count} values need {bytes}"
+            ),
+            None => format!("a compressed block has no complete header ({count} values)"),
+        }));
+    }
+    Ok(())
 }
 
 /// A grid's transform: its map's name and, for the maps haze reads (uniform scale,

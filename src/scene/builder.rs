@@ -90,6 +90,66 @@ fn defined<'a>(names: impl ExactSizeIterator<Item = &'a str>) -> String {
     format!("defined: {}{}", list.join(", "), if n > 20 { ", …" } else { "" })
 }
 
+/// The density grid made in code of grid medium `name` from `voxels`; refused where the medium
+/// also names grids of a file (`from_file`: each key and whether it is given), which cannot join
+/// it.
+fn grid_in_code(
+    name: &str,
+    voxels: &crate::scene::VoxelGrid,
+    from_file: [(&str, bool); 4],
+) -> Result<DensityGrid> {
+    let key = |k: &str| format!("media.{name}.{k}");
+    if let Some((k, _)) = from_file.iter().find(|(_, given)| *given) {
+        return Err(invalid(
+            key(k),
+            "reads grids from the medium's file, and this medium's grid is made in code \
+             (MediumDesc::voxels): build it from a file instead",
+        ));
+    }
+    voxel_grid(voxels).map_err(|m| invalid(key("voxels"), m))
+}
+
+/// The largest extinction of grid medium `name` (grid maximum × `density_scale` × σ_t's largest
+/// channel), which must be a finite f32, or tracking divides ∞ by ∞.
+fn peak_extinction(name: &str, max_density: f32, density_scale: f32, sigma_t: Rgb) -> Result<f32> {
+    let peak = max_density * density_scale * sigma_t.max_element();
+    if !peak.is_finite() {
+        return Err(invalid(
+            format!("media.{name}.density_scale"),
+            format!(
+                "the largest extinction, {max_density} (grid maximum) × {density_scale} × σ_t, \
+                 overflows single precision; scale the coefficients down"
+            ),
+        ));
+    }
+    Ok(peak)
+}
+
+/// Why an albedo field is refused: a value above 1 (in 1 + 1e-6: grids written as 1.0 through a
+/// scale of exactly 1 pass).
+fn albedo_beyond_1(field: &ColourField) -> Option<String> {
+    let max = field.max_value();
+    (max > 1.0 + 1e-6).then(|| {
+        format!(
+            "albedo must lie in [0, 1], but the grids reach {max:.3} (their largest value × \
+             scale {})",
+            field.scale
+        )
+    })
+}
+
+/// Why an extinction field is refused: times the medium's largest extinction `peak` it
+/// overflows single precision.
+fn extinction_overflows(peak: f32, field: &ColourField) -> Option<String> {
+    let max = field.max_value();
+    (!(peak * max).is_finite()).then(|| {
+        format!(
+            "the largest extinction, {peak} × {max} (the grids' largest value × scale), \
+             overflows single precision; scale down"
+        )
+    })
+}
+
 fn check_color(key: String, c: Rgb, max: Option<f32>) -> Result<()> {
     if !c.is_finite() {
         return Err(invalid(key, format!("must be finite, got {c}")));
@@ -246,109 +306,91 @@ impl SceneBuilder {
             MediumDesc::Homogeneous { .. } => {
                 Medium::Homogeneous(Homogeneous { sigma_a, sigma_s, phase, emission })
             }
-            MediumDesc::Vdb {
-                file,
-                grid,
-                density_scale,
-                transform,
-                temperature,
-                emission_grid,
-                albedo_grid,
-                extinction_grid,
-                layout,
-                voxels,
-                ..
-            } => {
-                if !(density_scale.is_finite() && density_scale >= 0.0) {
-                    return Err(invalid(
-                        key("density_scale"),
-                        format!("must be finite and non-negative, got {density_scale}"),
-                    ));
-                }
-                check_transform(&transform, &format!("media.{name}"))?;
-                let grid_name = grid;
-                let mut grid = match &voxels {
-                    Some(v) => {
-                        // Grids of files cannot join a grid made in code.
-                        let from_file = [
-                            ("temperature", temperature.is_some()),
-                            ("emission_grid", emission_grid.is_some()),
-                            ("albedo_grid", albedo_grid.is_some()),
-                            ("extinction_grid", extinction_grid.is_some()),
-                        ];
-                        if let Some((k, _)) = from_file.iter().find(|(_, given)| *given) {
-                            return Err(invalid(
-                                key(k),
-                                "reads grids from the medium's file, and this medium's grid is \
-                                 made in code (MediumDesc::voxels): build it from a file instead",
-                            ));
-                        }
-                        voxel_grid(v).map_err(|m| invalid(key("voxels"), m))?
-                    }
-                    None => self.load_grid(&file, &grid_name, layout).map_err(|e| {
-                        invalid(key("file"), self.relative_note(&file, e.to_string()))
-                    })?,
-                };
-                let to_scene = transform.matrix();
-                let temperature = match temperature {
-                    Some(t) => Some(self.temperature_field(name, &file, &t, to_scene, layout)?),
-                    None => None,
-                };
-                // The largest extinction must be a finite f32, or tracking divides ∞ by ∞.
-                let peak = grid.max_density * density_scale * (sigma_a + sigma_s).max_element();
-                if !peak.is_finite() {
-                    return Err(invalid(
-                        key("density_scale"),
-                        format!(
-                            "the largest extinction, {} (grid maximum) × {density_scale} × σ_t, \
-                             overflows single precision; scale the coefficients down",
-                            grid.max_density
-                        ),
-                    ));
-                }
-                // Scaled here (a copy of its own if the grid is shared and the scale is not 1),
-                // so that the listing counts the copy.
-                grid.scale_values(density_scale);
-                self.list_grid(name, &grid_name, &grid);
-                if let Some(t) = &temperature {
-                    self.list_grid(name, &t.name, &t.grid);
-                }
-                let fields = (file.as_path(), layout, to_scene);
-                let colour =
-                    self.colour_field(name, "emission_grid", emission_grid, fields, |_| None)?;
-                let albedo =
-                    self.colour_field(name, "albedo_grid", albedo_grid, fields, |field| {
-                        // In 1 + 1e-6: grids written as 1.0 through a scale of exactly 1 pass.
-                        let max = field.max_value();
-                        (max > 1.0 + 1e-6).then(|| {
-                            format!(
-                                "albedo must lie in [0, 1], but the grids reach {max:.3} (their \
-                             largest value × scale {})",
-                                field.scale
-                            )
-                        })
-                    })?;
-                let extinction =
-                    self.colour_field(name, "extinction_grid", extinction_grid, fields, |field| {
-                        let max = field.max_value();
-                        (!(peak * max).is_finite()).then(|| {
-                            format!(
-                                "the largest extinction, {peak} × {max} (the grids' largest value \
-                                 × scale), overflows single precision; scale down"
-                            )
-                        })
-                    })?;
-                let medium = VdbMedium::new(grid, to_scene, 1.0, sigma_a, sigma_s, phase);
-                let medium = medium
-                    .with_emission(emission, temperature)
-                    .with_emission_grid(colour)
-                    .with_albedo_grid(albedo)
-                    .with_extinction_grid(extinction);
-                Medium::Vdb(Box::new(medium))
-            }
+            MediumDesc::Vdb { .. } => self.grid_medium(name, desc, phase)?,
         };
         self.media.push((name.to_string(), medium));
         Ok(MediumId(self.media.len() as u32 - 1))
+    }
+
+    /// The grid medium `name` of `desc` (a [`MediumDesc::Vdb`]) with phase function `phase`: its
+    /// density grid (from its file or made in code), scaled, with its emission, albedo and
+    /// extinction fields, each checked.
+    fn grid_medium(
+        &mut self,
+        name: &str,
+        desc: MediumDesc,
+        phase: HenyeyGreenstein,
+    ) -> Result<Medium> {
+        let key = |k: &str| format!("media.{name}.{k}");
+        let MediumDesc::Vdb {
+            file,
+            grid,
+            density_scale,
+            transform,
+            temperature,
+            emission_grid,
+            albedo_grid,
+            extinction_grid,
+            layout,
+            voxels,
+            sigma_a,
+            sigma_s,
+            emission,
+            ..
+        } = desc
+        else {
+            unreachable!("grid_medium is called for MediumDesc::Vdb only")
+        };
+        if !(density_scale.is_finite() && density_scale >= 0.0) {
+            return Err(invalid(
+                key("density_scale"),
+                format!("must be finite and non-negative, got {density_scale}"),
+            ));
+        }
+        check_transform(&transform, &format!("media.{name}"))?;
+        let grid_name = grid;
+        let mut grid = match &voxels {
+            Some(v) => {
+                let from_file = [
+                    ("temperature", temperature.is_some()),
+                    ("emission_grid", emission_grid.is_some()),
+                    ("albedo_grid", albedo_grid.is_some()),
+                    ("extinction_grid", extinction_grid.is_some()),
+                ];
+                grid_in_code(name, v, from_file)?
+            }
+            None => self
+                .load_grid(&file, &grid_name, layout)
+                .map_err(|e| invalid(key("file"), self.relative_note(&file, e.to_string())))?,
+        };
+        let to_scene = transform.matrix();
+        let temperature = match temperature {
+            Some(t) => Some(self.temperature_field(name, &file, &t, to_scene, layout)?),
+            None => None,
+        };
+        let peak = peak_extinction(name, grid.max_density, density_scale, sigma_a + sigma_s)?;
+        // Scaled here (a copy of its own if the grid is shared and the scale is not 1),
+        // so that the listing counts the copy.
+        grid.scale_values(density_scale);
+        self.list_grid(name, &grid_name, &grid);
+        if let Some(t) = &temperature {
+            self.list_grid(name, &t.name, &t.grid);
+        }
+        let fields = (file.as_path(), layout, to_scene);
+        let colour = self.colour_field(name, "emission_grid", emission_grid, fields, |_| None)?;
+        let albedo =
+            self.colour_field(name, "albedo_grid", albedo_grid, fields, albedo_beyond_1)?;
+        let extinction =
+            self.colour_field(name, "extinction_grid", extinction_grid, fields, |f| {
+                extinction_overflows(peak, f)
+            })?;
+        let medium = VdbMedium::new(grid, to_scene, 1.0, sigma_a, sigma_s, phase);
+        let medium = medium
+            .with_emission(emission, temperature)
+            .with_emission_grid(colour)
+            .with_albedo_grid(albedo)
+            .with_extinction_grid(extinction);
+        Ok(Medium::Vdb(Box::new(medium)))
     }
 
     /// The colour field `given` (three grid names and a scale) of grid medium `name`, for its key

@@ -571,19 +571,19 @@ fn listed<T>(
     Ok(out)
 }
 
-/// Parses scene text into [`SceneFile`].
-pub fn read(text: &str) -> Result<SceneFile, FormatError> {
-    let root = DeTable::parse(text).map_err(|e| {
-        let mut message = e.message().trim().to_string();
-        // Name the key when the parser only says "duplicate key".
-        if let Some(span) = e.span().filter(|_| message == "duplicate key") {
-            if let Some(key) = text.get(span.clone()).filter(|k| !k.is_empty()) {
-                message = format!("duplicate key `{}`", key.trim());
-            }
+/// A TOML syntax error as one line, naming the key where the parser only says "duplicate key".
+fn parse_error(text: &str, e: &toml::de::Error) -> FormatError {
+    let mut message = e.message().trim().to_string();
+    if let Some(span) = e.span().filter(|_| message == "duplicate key") {
+        if let Some(key) = text.get(span.clone()).filter(|k| !k.is_empty()) {
+            message = format!("duplicate key `{}`", key.trim());
         }
-        FormatError { key: String::new(), at: e.span().map(|s| s.start), message }
-    })?;
-    let root = root.get_ref();
+    }
+    FormatError { key: String::new(), at: e.span().map(|s| s.start), message }
+}
+
+/// Refuses a top-level section the format does not have.
+fn check_sections(root: &DeTable<'_>) -> Result<(), FormatError> {
     for (k, v) in root.iter() {
         let k = k.get_ref().as_ref();
         if !["camera", "render", "materials", "media", "shapes", "lights"].contains(&k) {
@@ -596,6 +596,14 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
             ));
         }
     }
+    Ok(())
+}
+
+/// Parses scene text into [`SceneFile`].
+pub fn read(text: &str) -> Result<SceneFile, FormatError> {
+    let root = DeTable::parse(text).map_err(|e| parse_error(text, &e))?;
+    let root = root.get_ref();
+    check_sections(root)?;
     let camera = root.get("camera").ok_or_else(|| FormatError {
         key: "camera".into(),
         at: None,

@@ -82,19 +82,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
     if args.runs == 0 {
         bail!("--runs must be at least 1");
     }
-    let mut series = Vec::new();
-    for name in &args.compare {
-        series
-            .extend(converge::preset(name, &base).map_err(|e| anyhow::anyhow!("--compare: {e}"))?);
-    }
-    for spec in &args.series {
-        series.push(
-            converge::parse_series(spec, &base).map_err(|e| anyhow::anyhow!("--series: {e}"))?,
-        );
-    }
-    if series.is_empty() {
-        series.push(converge::Series { label: "scene settings".into(), settings: base.clone() });
-    }
+    let series = series_of(&args, &base)?;
     let stem = args.scene.file_stem().unwrap_or("scene".as_ref()).to_string_lossy().to_string();
     let prefix = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("converge-{stem}")));
     check_output_dir("--output", &prefix)?;
@@ -110,11 +98,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
     };
     let total = series.len() as f64 * args.runs as f64 * time;
     let bar =
-        if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((total * 1000.0) as u64) };
-    if let Ok(style) = ProgressStyle::with_template("{elapsed_precise} [{bar:30}] ETA {eta} {msg}")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
+        bar(args.quiet, (total * 1000.0) as u64, "{elapsed_precise} [{bar:30}] ETA {eta} {msg}");
     let labels: Vec<String> = series.iter().map(|s| s.label.clone()).collect();
     let runs = args.runs;
     let log = crate::shared::LogLines::new(args.quiet);
@@ -143,21 +127,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
         let [w, h] = scene.resolution();
         format!("{stem} ({w}x{h}), {} threads", pool.current_num_threads())
     });
-    let chart = converge::chart(&title, &summaries);
-    let table = converge::markdown(&summaries);
-    let estimate_chart = converge::estimate_chart(&format!("{title}: estimated error"), &summaries);
-    let with = |ext: &str| PathBuf::from(format!("{}.{ext}", prefix.display()));
-    interrupt.writing(|| -> Result<()> {
-        let write = |p: PathBuf, data: String| haze::output::write_bytes(&p, data.as_bytes());
-        write(with("csv"), converge::csv(&series, &samples))?;
-        write(with("md"), table.clone())?;
-        chart.write_svg(&with("svg"))?;
-        if let Some(c) = &estimate_chart {
-            c.write_svg(&PathBuf::from(format!("{}-estimate.svg", prefix.display())))?;
-        }
-        Ok(())
-    })?;
-    println!("{table}");
+    let wrote = write_converge(&prefix, &title, &series, &samples, &summaries, &interrupt)?;
     println!(
         "reference: {} ({}); {} run(s) of {:.0} s per series, {} threads",
         args.reference.display(),
@@ -166,10 +136,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
         time,
         pool.current_num_threads()
     );
-    match estimate_chart {
-        Some(_) => println!("wrote {0}.{{csv,md,svg}} and {0}-estimate.svg", prefix.display()),
-        None => println!("wrote {}.{{csv,md,svg}}", prefix.display()),
-    }
+    println!("{wrote}");
     if let Some(code) = interrupt.exit_code() {
         eprintln!(
             "interrupted by {}: the files hold the checkpoints reached so far",
@@ -182,29 +149,10 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
 
 pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
     use haze::lab::validate::{self, Effort};
-    if let Some(p) = &args.markdown {
-        check_output_dir("--markdown", p)?;
-    }
-    if let Some(p) = &args.csv {
-        check_output_dir("--csv", p)?;
-    }
-    if !args.media.join("box.vdb").is_file() {
-        bail!(
-            "--media {}: box.vdb not found (run from the repository root or pass --media)",
-            args.media.display()
-        );
-    }
-    if args.power && args.quick {
-        bail!("--power and --quick: the power cases run at their own effort; give one of them");
-    }
+    check_validate_args(&args)?;
     let effort = if args.quick { Effort::QUICK } else { Effort::FULL };
     let pool = thread_pool(args.threads)?;
-    let bar = ProgressBar::new(0);
-    if let Ok(style) =
-        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} renders, ETA {eta}")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
+    let bar = bar(false, 0, "{elapsed_precise} [{bar:30}] {pos}/{len} renders, ETA {eta}");
     let start = Instant::now();
     let log = crate::shared::LogLines::new(false);
     let rows = pool.install(|| {
@@ -239,31 +187,7 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
     let table = validate::markdown(&rows);
     println!("{table}");
     println!("{}", validate::summary(&rows));
-    if args.quick {
-        println!(
-            "--quick is a smoke test: with so few seeds and iterations the t-test sees only large \
-             errors, and photon estimates at their large early radii lean on their bias bounds; \
-             docs/validation.md has the full run (haze validate without --quick)."
-        );
-    }
-    if args.power {
-        println!(
-            "{} rows of the power cases, each at its own effort (docs/validation.md); {} threads; {:.0} s",
-            rows.len(),
-            pool.current_num_threads(),
-            start.elapsed().as_secs_f64()
-        );
-    } else {
-        println!(
-            "{} rows, {} seeds each, {} iterations x {} light paths per render; {} threads; {:.0} s",
-            rows.len(),
-            effort.seeds,
-            effort.iterations,
-            effort.photons,
-            pool.current_num_threads(),
-            start.elapsed().as_secs_f64()
-        );
-    }
+    println!("{}", validate_footer(&args, rows.len(), effort, pool.current_num_threads(), start));
     if let Some(p) = &args.markdown {
         haze::output::write_bytes(p, table.as_bytes())?;
     }
@@ -275,4 +199,126 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
         bail!("{failed} of {} cases disagree with their references", rows.len());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A progress bar of `len` steps drawn by `template` (hidden if `quiet`).
+fn bar(quiet: bool, len: u64, template: &str) -> ProgressBar {
+    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(len) };
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+/// Refuses `haze validate` arguments that cannot work, before any render.
+fn check_validate_args(args: &ValidateArgs) -> Result<()> {
+    if let Some(p) = &args.markdown {
+        check_output_dir("--markdown", p)?;
+    }
+    if let Some(p) = &args.csv {
+        check_output_dir("--csv", p)?;
+    }
+    if !args.media.join("box.vdb").is_file() {
+        bail!(
+            "--media {}: box.vdb not found (run from the repository root or pass --media)",
+            args.media.display()
+        );
+    }
+    if args.power && args.quick {
+        bail!("--power and --quick: the power cases run at their own effort; give one of them");
+    }
+    Ok(())
+}
+
+/// What follows `haze validate`'s table: how much was run, and what a quick run can see.
+fn validate_footer(
+    args: &ValidateArgs,
+    rows: usize,
+    effort: haze::lab::validate::Effort,
+    threads: usize,
+    start: Instant,
+) -> String {
+    let mut lines = Vec::new();
+    if args.quick {
+        lines.push(
+            "--quick is a smoke test: with so few seeds and iterations the t-test sees only large \
+             errors, and photon estimates at their large early radii lean on their bias bounds; \
+             docs/validation.md has the full run (haze validate without --quick)."
+                .to_string(),
+        );
+    }
+    if args.power {
+        lines.push(format!(
+            "{} rows of the power cases, each at its own effort (docs/validation.md); {} threads; {:.0} s",
+            rows,
+            threads,
+            start.elapsed().as_secs_f64()
+        ));
+    } else {
+        lines.push(format!(
+            "{} rows, {} seeds each, {} iterations x {} light paths per render; {} threads; {:.0} s",
+            rows,
+            effort.seeds,
+            effort.iterations,
+            effort.photons,
+            threads,
+            start.elapsed().as_secs_f64()
+        ));
+    }
+    lines.join("\n")
+}
+
+/// Writes `haze converge`'s files beside `prefix` (CSV, Markdown table, SVG chart and, where the
+/// renders estimated their error, a chart of the estimates) and prints the table; returns the
+/// line that names what was written.
+fn write_converge(
+    prefix: &std::path::Path,
+    title: &str,
+    series: &[haze::lab::converge::Series],
+    samples: &[haze::lab::converge::Sample],
+    summaries: &[haze::lab::converge::Summary],
+    interrupt: &Interrupt,
+) -> Result<String> {
+    use haze::lab::converge;
+    let chart = converge::chart(title, summaries);
+    let table = converge::markdown(summaries);
+    let estimate_chart = converge::estimate_chart(&format!("{title}: estimated error"), summaries);
+    let with = |ext: &str| PathBuf::from(format!("{}.{ext}", prefix.display()));
+    interrupt.writing(|| -> Result<()> {
+        let write = |p: PathBuf, data: String| haze::output::write_bytes(&p, data.as_bytes());
+        write(with("csv"), converge::csv(series, samples))?;
+        write(with("md"), table.clone())?;
+        chart.write_svg(&with("svg"))?;
+        if let Some(c) = &estimate_chart {
+            c.write_svg(&PathBuf::from(format!("{}-estimate.svg", prefix.display())))?;
+        }
+        Ok(())
+    })?;
+    println!("{table}");
+    match estimate_chart {
+        Some(_) => Ok(format!("wrote {0}.{{csv,md,svg}} and {0}-estimate.svg", prefix.display())),
+        None => Ok(format!("wrote {}.{{csv,md,svg}}", prefix.display())),
+    }
+}
+
+/// The series `haze converge` compares: its presets (`--compare`), then its `--series`, or the
+/// scene's own settings alone.
+fn series_of(
+    args: &ConvergeArgs,
+    base: &haze::RenderSettings,
+) -> Result<Vec<haze::lab::converge::Series>> {
+    use haze::lab::converge;
+    let mut series = Vec::new();
+    for name in &args.compare {
+        series.extend(converge::preset(name, base).map_err(|e| anyhow::anyhow!("--compare: {e}"))?);
+    }
+    for spec in &args.series {
+        series.push(
+            converge::parse_series(spec, base).map_err(|e| anyhow::anyhow!("--series: {e}"))?,
+        );
+    }
+    if series.is_empty() {
+        series.push(converge::Series { label: "scene settings".into(), settings: base.clone() });
+    }
+    Ok(series)
 }

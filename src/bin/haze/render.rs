@@ -57,85 +57,14 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     // unless the command line says otherwise.
     let resumed = args.resume.as_deref().map(Partial::read).transpose()?;
     let mut scene = args.overrides.load_scene(&args.scene)?;
-    let base = match &resumed {
-        Some(part) => {
-            if args.overrides.resolution.is_none() {
-                scene.set_resolution([part.film.width(), part.film.height()])?;
-            }
-            RenderSettings {
-                iterations: scene.settings.iterations,
-                time_limit: scene.settings.time_limit,
-                ..part.info.settings.clone()
-            }
-        }
-        None => scene.settings.clone(),
-    };
-    let settings = args.overrides.settings(&base)?;
+    let settings = settings_of(&args, resumed.as_ref(), &mut scene)?;
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         bail!("--exposure must be a positive number, got {}", args.exposure);
     }
-    let output = match (&args.output, &resumed, &args.resume) {
-        (Some(o), ..) => o.clone(),
-        (None, Some(part), Some(path)) => part.output.clone().unwrap_or_else(|| path.clone()),
-        _ => default_output(&args.scene, None, "exr"),
-    };
-    // Recorded in every partial this render writes, for a later resume.
-    let recorded = output
-        .extension()
-        .is_none_or(|e| e != "hpr")
-        .then(|| std::path::absolute(&output).unwrap_or_else(|_| output.clone()));
-    let partial_only = output.extension().is_some_and(|e| e == "hpr");
-    match output.extension().and_then(|e| e.to_str()) {
-        Some("exr") => {}
-        Some("png" | "hpr") if !args.reference => {}
-        _ if args.reference => bail!("--output {}: a reference must end in .exr", output.display()),
-        _ => bail!(
-            "--output {}: the file name must end in .exr (OpenEXR plus a PNG preview), .png or \
-             .hpr (a partial render)",
-            output.display()
-        ),
-    }
-    check_output_dir("--output", &output)?;
-    let partial_path = output.with_extension("hpr");
-    let start = match (resumed, args.first_iteration) {
-        (Some(_), Some(_)) => bail!("--resume continues a partial render: give it no range"),
-        (Some(part), None) => {
-            let p = args.resume.as_deref().unwrap_or(partial_path.as_path());
-            if settings.iterations.is_some_and(|n| n <= part.last_iteration()) {
-                bail!(
-                    "--resume {}: it already holds iterations {}..{}; ask for more with \
-                     --iterations N (the last iteration's index) or --time",
-                    p.display(),
-                    part.info.first_iteration,
-                    part.last_iteration()
-                );
-            }
-            Start::Resume(Box::new(part))
-        }
-        (None, Some(a)) => {
-            if settings.iterations.is_some_and(|b| b < a) || a == 0 {
-                bail!(
-                    "--iterations {a}..{}: not a range of iterations",
-                    settings.iterations.unwrap_or(0)
-                );
-            }
-            Start::At(a)
-        }
-        (None, None) => Start::At(1),
-    };
-    let ranged = args.first_iteration.is_some() || args.resume.is_some() || partial_only;
-    let preview = haze::output::preview_path(&output);
-    if output.extension().is_some_and(|e| e == "exr")
-        && preview.exists()
-        && !haze::output::is_haze_preview(&preview)
-    {
-        bail!(
-            "--output {}: its PNG preview would replace {}, which haze did not write; move that \
-             file away or choose another output name",
-            output.display(),
-            preview.display()
-        );
-    }
+    let outs = outputs(&args, resumed.as_ref())?;
+    let (recorded, partial_path) = (outs.recorded.clone(), outs.partial_path.clone());
+    let start = start_of(&args, resumed, &settings, &partial_path)?;
+    let ranged = args.first_iteration.is_some() || args.resume.is_some() || outs.partial_only;
     let pool = thread_pool(args.overrides.threads)?;
     let stop = interrupt.flag();
     if !args.quiet {
@@ -148,22 +77,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     // Every write of the outputs — snapshots and the last — in one place: the partial render if
     // asked for, then the image unless the output is a partial alone; a second signal waits.
     let write = |part: &Partial, with_partial: bool| {
-        interrupt.writing(|| -> haze::Result<Vec<PathBuf>> {
-            let mut written = Vec::new();
-            if with_partial {
-                part.write(&partial_path)?;
-                written.push(partial_path.clone());
-            }
-            if !partial_only {
-                let image = part.image();
-                written.extend(if args.reference {
-                    image.write_reference(&output, args.exposure)?
-                } else {
-                    image.write(&output, args.exposure)?
-                });
-            }
-            Ok(written)
-        })
+        interrupt.writing(|| outs.write(part, with_partial, args.reference, args.exposure))
     };
     let mut last_snapshot = Instant::now();
     let mut snapshot_error = None;
@@ -204,9 +118,160 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     }
     let keep_partial = ranged || args.snapshot_every.is_some() || interrupt.name().is_some();
     let written = write(&part, keep_partial)?;
+    eprintln!("{}", summary(&part, &settings, &written, ranged, interrupt.name()));
+    if interrupt.name().is_some() {
+        eprintln!("{}", resume_hint(&args, &settings, started, &partial_path));
+    }
+    warn_about(&part.info);
+    Ok(interrupt.exit_code().unwrap_or(ExitCode::SUCCESS))
+}
+
+/// The settings of a render: the scene's, or for a resume its partial's (with the scene's goal
+/// and, unless `--resolution` says otherwise, the partial's image size), then the command line's.
+fn settings_of(
+    args: &RenderArgs,
+    resumed: Option<&Partial>,
+    scene: &mut haze::Scene,
+) -> Result<RenderSettings> {
+    let base = match resumed {
+        Some(part) => {
+            if args.overrides.resolution.is_none() {
+                scene.set_resolution([part.film.width(), part.film.height()])?;
+            }
+            RenderSettings {
+                iterations: scene.settings.iterations,
+                time_limit: scene.settings.time_limit,
+                ..part.info.settings.clone()
+            }
+        }
+        None => scene.settings.clone(),
+    };
+    args.overrides.settings(&base)
+}
+
+/// Where a render writes: the output file, the path recorded in its partials for a later resume
+/// (none for a partial alone), whether the output is a partial alone, and the partial's path.
+struct Outputs {
+    output: PathBuf,
+    recorded: Option<PathBuf>,
+    partial_only: bool,
+    partial_path: PathBuf,
+}
+
+impl Outputs {
+    /// Writes `part`: the partial render if `with_partial`, then the image (a reference for
+    /// `haze converge` if `reference`) unless the output is a partial alone. Returns the files.
+    fn write(
+        &self,
+        part: &Partial,
+        with_partial: bool,
+        reference: bool,
+        exposure: f32,
+    ) -> haze::Result<Vec<PathBuf>> {
+        let mut written = Vec::new();
+        if with_partial {
+            part.write(&self.partial_path)?;
+            written.push(self.partial_path.clone());
+        }
+        if !self.partial_only {
+            let image = part.image();
+            written.extend(if reference {
+                image.write_reference(&self.output, exposure)?
+            } else {
+                image.write(&self.output, exposure)?
+            });
+        }
+        Ok(written)
+    }
+}
+
+/// The outputs of `args` (a resumed partial's own unless `-o` says otherwise), checked: a known
+/// extension, a writable directory.
+fn outputs(args: &RenderArgs, resumed: Option<&Partial>) -> Result<Outputs> {
+    let output = match (&args.output, resumed, &args.resume) {
+        (Some(o), ..) => o.clone(),
+        (None, Some(part), Some(path)) => part.output.clone().unwrap_or_else(|| path.clone()),
+        _ => default_output(&args.scene, None, "exr"),
+    };
+    // Recorded in every partial this render writes, for a later resume.
+    let recorded = output
+        .extension()
+        .is_none_or(|e| e != "hpr")
+        .then(|| std::path::absolute(&output).unwrap_or_else(|_| output.clone()));
+    let partial_only = output.extension().is_some_and(|e| e == "hpr");
+    match output.extension().and_then(|e| e.to_str()) {
+        Some("exr") => {}
+        Some("png" | "hpr") if !args.reference => {}
+        _ if args.reference => bail!("--output {}: a reference must end in .exr", output.display()),
+        _ => bail!(
+            "--output {}: the file name must end in .exr (OpenEXR plus a PNG preview), .png or \
+             .hpr (a partial render)",
+            output.display()
+        ),
+    }
+    check_output_dir("--output", &output)?;
+    let partial_path = output.with_extension("hpr");
+    let preview = haze::output::preview_path(&output);
+    if output.extension().is_some_and(|e| e == "exr")
+        && preview.exists()
+        && !haze::output::is_haze_preview(&preview)
+    {
+        bail!(
+            "--output {}: its PNG preview would replace {}, which haze did not write; move that \
+             file away or choose another output name",
+            output.display(),
+            preview.display()
+        );
+    }
+    Ok(Outputs { output, recorded, partial_only, partial_path })
+}
+
+/// Where the render starts: after a resumed partial's last iteration, at the first of a range,
+/// or at 1; refused where they contradict each other or the goal.
+fn start_of(
+    args: &RenderArgs,
+    resumed: Option<Partial>,
+    settings: &RenderSettings,
+    partial_path: &Path,
+) -> Result<Start> {
+    Ok(match (resumed, args.first_iteration) {
+        (Some(_), Some(_)) => bail!("--resume continues a partial render: give it no range"),
+        (Some(part), None) => {
+            let p = args.resume.as_deref().unwrap_or(partial_path);
+            if settings.iterations.is_some_and(|n| n <= part.last_iteration()) {
+                bail!(
+                    "--resume {}: it already holds iterations {}..{}; ask for more with \
+                     --iterations N (the last iteration's index) or --time",
+                    p.display(),
+                    part.info.first_iteration,
+                    part.last_iteration()
+                );
+            }
+            Start::Resume(Box::new(part))
+        }
+        (None, Some(a)) => {
+            if settings.iterations.is_some_and(|b| b < a) || a == 0 {
+                bail!(
+                    "--iterations {a}..{}: not a range of iterations",
+                    settings.iterations.unwrap_or(0)
+                );
+            }
+            Start::At(a)
+        }
+        (None, None) => Start::At(1),
+    })
+}
+
+/// The line that ends a render: iterations, work, time, noise and bias, target, files written.
+fn summary(
+    part: &Partial,
+    settings: &RenderSettings,
+    written: &[PathBuf],
+    ranged: bool,
+    interrupted_by: Option<&str>,
+) -> String {
     let i = &part.info;
-    let interrupted =
-        interrupt.name().map(|n| format!(" (interrupted by {n})")).unwrap_or_default();
+    let interrupted = interrupted_by.map(|n| format!(" (interrupted by {n})")).unwrap_or_default();
     let work = match i.settings.integrator {
         Integrator::PhotonMapping | Integrator::Hybrid => {
             format!("{} light paths, final radius {:.5}", i.light_paths, i.radius)
@@ -249,28 +314,39 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         ),
         _ => noise,
     };
-    eprintln!(
+    format!(
         "{} iterations{range}{interrupted}, {work}, {:.1} s{noise}: wrote {}",
         i.iterations,
         i.elapsed,
         files.join(" and ")
-    );
-    if interrupt.name().is_some() {
-        // The partial records the size, settings and outputs: the command needs only the goal.
-        let goal = match (settings.iterations, settings.time_limit) {
-            (Some(n), _) => format!(" --iterations {n}"),
-            (None, Some(t)) => {
-                format!(" --time {:.0}s", (t - started.elapsed().as_secs_f64()).max(1.0).ceil())
-            }
-            (None, None) => String::new(),
-        };
-        eprintln!(
-            "resume with: {} render {} --resume {}{goal}",
-            invocation(),
-            shell_word(&args.scene.display().to_string()),
-            shell_word(&partial_path.display().to_string())
-        );
-    }
+    )
+}
+
+/// The command that resumes an interrupted render: the partial records the size, settings and
+/// outputs, so it needs only the goal (the iteration count, or the time left).
+fn resume_hint(
+    args: &RenderArgs,
+    settings: &RenderSettings,
+    started: Instant,
+    partial: &Path,
+) -> String {
+    let goal = match (settings.iterations, settings.time_limit) {
+        (Some(n), _) => format!(" --iterations {n}"),
+        (None, Some(t)) => {
+            format!(" --time {:.0}s", (t - started.elapsed().as_secs_f64()).max(1.0).ceil())
+        }
+        (None, None) => String::new(),
+    };
+    format!(
+        "resume with: {} render {} --resume {}{goal}",
+        invocation(),
+        shell_word(&args.scene.display().to_string()),
+        shell_word(&partial.display().to_string())
+    )
+}
+
+/// Warnings about the render's samples: non-finite ones, trackings cut at the step cap.
+fn warn_about(i: &haze::RenderInfo) {
     if i.nonfinite_samples > 0 {
         eprintln!("warning: {} non-finite samples were replaced by black", i.nonfinite_samples);
     }
@@ -282,7 +358,6 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
             i.truncated_trackings
         );
     }
-    Ok(interrupt.exit_code().unwrap_or(ExitCode::SUCCESS))
 }
 
 fn progress_bar(settings: &RenderSettings) -> ProgressBar {
