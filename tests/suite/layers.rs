@@ -513,7 +513,7 @@ const LONG_FUNCTIONS: &[(&str, &str)] = &[
         "one traversal loop of the BVH4 (stack, four-wide box tests, leaves, pass-through hits)",
     ),
     (
-        "medium/vdb.rs::tentative",
+        "medium/vdb/tracking.rs::tentative",
         "one tracking walk: the DDA over majorant cells with the bisection of dense pieces",
     ),
     (
