@@ -2,9 +2,9 @@
 //! lookups, with a coarse majorant grid for delta tracking.
 //!
 //! vdb-rs 0.6 reads the file's header and grid descriptors; haze reads the grid's tree itself
-//! (`vdbscan.rs`), straight from the file. Every known failure mode of vdb-rs is guarded against
-//! and reported as an [`Error::Volume`] naming the file and grid, and never takes the process
-//! down:
+//! (`vdbscan.rs`, through `read.rs`), straight from the file. Every known failure mode of vdb-rs
+//! is guarded against and reported as an [`Error::Volume`](crate::Error::Volume) naming the file
+//! and grid, and never takes the process down:
 //!
 //! | vdb-rs 0.6 behaviour | haze |
 //! |---|---|
@@ -33,12 +33,10 @@
 //! each time, with no per-voxel list in between: the memory it takes is the final copy, the
 //! census (a set of brick indices) and a node's worth of buffers.
 
+mod read;
+
 use super::blocks::Blocked;
-use super::vdbscan::{Input, check_header};
-use crate::error::{Error, Result, quote};
 use glam::{IVec3, Vec3};
-use std::io::{Read, Seek};
-use std::path::Path;
 
 /// Largest OpenVDB file accepted (bytes).
 pub const MAX_FILE_BYTES: u64 = 4 << 30;
@@ -143,44 +141,7 @@ pub struct DensityGrid {
     pub active_box: (IVec3, IVec3),
 }
 
-fn volume_error(path: &Path, message: impl Into<String>) -> Error {
-    Error::Volume { path: path.to_path_buf(), message: message.into() }
-}
-
 impl DensityGrid {
-    /// Reads float grid `name` from the OpenVDB file at `path`, in the layout that suits it.
-    #[cfg(test)]
-    pub fn load(path: &Path, name: &str) -> Result<DensityGrid> {
-        Self::load_with(path, name, Layout::Auto)
-    }
-
-    /// Reads float grid `name` from the OpenVDB file at `path` in layout `layout`, streaming
-    /// the file (it is never held in memory whole).
-    pub fn load_with(path: &Path, name: &str, layout: Layout) -> Result<DensityGrid> {
-        crate::input::check_file(path, MAX_FILE_BYTES, "an OpenVDB file")?;
-        let header = std::fs::File::open(path)
-            .map_err(|error| Error::Io { path: path.to_path_buf(), error })?;
-        let input = Input::File(path);
-        let read = read_header(std::io::BufReader::new(header), input, path, name)?;
-        build(&read, path, name, layout)
-    }
-
-    /// Reads float grid `name` from the bytes of an OpenVDB file (`path` names it in messages).
-    pub fn from_bytes(bytes: &[u8], path: &Path, name: &str) -> Result<DensityGrid> {
-        Self::from_bytes_with(bytes, path, name, Layout::Auto)
-    }
-
-    /// [`Self::from_bytes`] in layout `layout`.
-    pub fn from_bytes_with(
-        bytes: &[u8],
-        path: &Path,
-        name: &str,
-        layout: Layout,
-    ) -> Result<DensityGrid> {
-        let read = read_header(std::io::Cursor::new(bytes), Input::Memory(bytes), path, name)?;
-        build(&read, path, name, layout)
-    }
-
     /// A dense grid from values made in code: `dims` voxels (x fastest), voxel (0, 0, 0)'s centre
     /// at `translation`, voxels of `voxel_size`. Every value must be finite and non-negative,
     /// and the grid within [`MAX_VOXELS`]; the message says what is wrong.
@@ -476,387 +437,6 @@ fn corner_sum(weights: &[f32; 8], values: &[f32], [sy, sz]: [usize; 2]) -> f32 {
     d
 }
 
-/// The header of the OpenVDB file `input` (read by vdb-rs from `reader`, after haze has checked
-/// it), grid `name` checked, and its transform.
-fn read_header<'a, R: Read + Seek>(
-    mut reader: R,
-    input: Input<'a>,
-    path: &Path,
-    name: &str,
-) -> Result<ReadGrid<'a>> {
-    let err = |m: String| volume_error(path, m);
-    let mut magic = [0u8; 4];
-    if reader.read_exact(&mut magic).is_err() || magic != [0x20, 0x42, 0x44, 0x56] {
-        return Err(err("not an OpenVDB file (bad magic number)".into()));
-    }
-    reader.rewind().map_err(|e| err(format!("cannot read: {e}")))?;
-    let found = check_header(input, name).map_err(err)?;
-    let opened =
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| vdb_rs::VdbReader::new(reader)));
-    let vdb = match opened {
-        Ok(Ok(v)) => v,
-        Ok(Err(e)) => {
-            return Err(err(format!("cannot read the file header: {}", quote(&e.to_string()))));
-        }
-        Err(_) => return Err(err("cannot read the file header (corrupt or unsupported)".into())),
-    };
-    // `NAME[k]`: component k of vector grid NAME, unless a grid has that very name. A grid
-    // haze's reader did not find is refused here with the file's grids.
-    let (grid, component) = found.as_ref().map_or((name, None), |f| (f.grid.as_str(), f.component));
-    check_names(&vdb, path, grid)?;
-    let gd = check_grid(&vdb, path, grid, component)?;
-    let Some(t) = found.as_ref().map(|f| &f.transform) else {
-        return Err(err(format!("grid `{name}`: not found by haze's reader (corrupt name?)")));
-    };
-    let Some((translation, voxel_size)) = t.place else {
-        return Err(err(format!(
-            "grid `{name}` has an `{}` transform; haze reads uniform-scale and scale-translate \
-             maps only (resample the grid, or place it with the medium's `transform`)",
-            quote(&t.map)
-        )));
-    };
-    let translation = Vec3::from(translation.map(|x| x as f32));
-    let voxel_size = Vec3::from(voxel_size.map(|x| x as f32));
-    if !(voxel_size.min_element() > 0.0 && voxel_size.is_finite() && translation.is_finite()) {
-        return Err(err(format!("grid `{name}`: invalid voxel size {voxel_size}")));
-    }
-    let expected = match gd.meta_data.0.get("file_voxel_count") {
-        Some(vdb_rs::MetadataValue::I64(n)) => Some(*n as u64),
-        _ => None,
-    };
-    let (grid, component) = (grid.to_string(), component.unwrap_or(0));
-    Ok(ReadGrid { input, grid, component, translation, voxel_size, expected })
-}
-
-/// Refuses grids that share a name (vdb-rs would keep only one), and names suffixed by OpenVDB
-/// for that reason.
-fn check_names<R: Read + Seek>(vdb: &vdb_rs::VdbReader<R>, path: &Path, name: &str) -> Result<()> {
-    let err = |m: String| volume_error(path, m);
-    let names = vdb.available_grids();
-    if (vdb.header.grid_count as usize) > names.len() {
-        return Err(err(format!(
-            "{} grids but only {} distinct names: two grids share a name, and vdb-rs would \
-             keep only one; rename them",
-            vdb.header.grid_count,
-            names.len()
-        )));
-    }
-    // OpenVDB writes grids that share a name as NAME\x1e0, NAME\x1e1, …; vdb-rs does not
-    // strip the suffix.
-    let suffixed: Vec<&String> = names
-        .iter()
-        .filter(|n| n.split('\u{1e}').next() == Some(name) && n.contains('\u{1e}'))
-        .collect();
-    if !suffixed.is_empty() {
-        return Err(err(format!(
-            "{} grids share the name `{name}`; rename them so that the grid to render is unique",
-            suffixed.len()
-        )));
-    }
-    Ok(())
-}
-
-/// The descriptor of grid `name`, refused if it is an instance or not of the type asked for: a
-/// float grid, or with a `component`, a 3-vector grid.
-fn check_grid<R: Read + Seek>(
-    vdb: &vdb_rs::VdbReader<R>,
-    path: &Path,
-    name: &str,
-    component: Option<usize>,
-) -> Result<vdb_rs::GridDescriptor> {
-    let err = |m: String| volume_error(path, m);
-    let Some(gd) = vdb.grid_descriptors.get(name).cloned() else {
-        let mut names = vdb.available_grids();
-        names.sort();
-        let names = names.iter().take(20).map(|n| format!("`{}`", quote(n))).collect::<Vec<_>>();
-        let more = if vdb.grid_descriptors.len() > 20 { ", …" } else { "" };
-        return Err(err(format!(
-            "no grid named `{}` (the file has {}{more})",
-            quote(name),
-            names.join(", ")
-        )));
-    };
-    let ty = gd.grid_type.strip_suffix("_HalfFloat").unwrap_or(&gd.grid_type);
-    match (ty, component) {
-        ("Tree_float_5_4_3", None) | ("Tree_vec3s_5_4_3", Some(_)) => {}
-        ("Tree_vec3s_5_4_3", None) => {
-            return Err(err(format!(
-                "grid `{name}` is a vector grid ({}); name one of its components as \
-                 `{name}[0]`, `{name}[1]` or `{name}[2]`, or give a float grid",
-                quote(&gd.grid_type)
-            )));
-        }
-        (_, None) => {
-            return Err(err(format!(
-                "grid `{name}` is of type {}, not a float grid (Tree_float_5_4_3)",
-                quote(&gd.grid_type)
-            )));
-        }
-        (_, Some(_)) => {
-            return Err(err(format!(
-                "grid `{name}` is of type {}, not a vector grid (Tree_vec3s_5_4_3) with \
-                 components",
-                quote(&gd.grid_type)
-            )));
-        }
-    }
-    if !gd.instance_parent.is_empty() {
-        return Err(err(format!("grid `{name}` is an instance of another grid; not supported")));
-    }
-    Ok(gd)
-}
-
-/// A grid to read: where its file's bytes are, its translation and voxel size, and the
-/// active-voxel count the file states.
-struct ReadGrid<'a> {
-    input: Input<'a>,
-    /// The grid's name in the file, and the component read (0 for a float grid).
-    grid: String,
-    component: usize,
-    translation: Vec3,
-    voxel_size: Vec3,
-    expected: Option<u64>,
-}
-
-/// Calls `f(first voxel, edge length in voxels, value)` for every active voxel and tile of the
-/// grid, decoded from the file as it is read (no copy of the file or the tree).
-fn for_each_item(
-    read: &ReadGrid,
-    path: &Path,
-    name: &str,
-    mut f: impl FnMut(IVec3, i32, f32),
-) -> Result<()> {
-    // The callers' arithmetic on what a corrupt file says (origins near the ends of i32) could
-    // panic: contained, and reported.
-    let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        super::vdbscan::for_each_value(read.input, &read.grid, read.component, &mut |p, edge, v| {
-            f(IVec3::from(p), edge, v)
-        })
-    }));
-    match run {
-        Ok(r) => r.map_err(|e| volume_error(path, format!("grid `{name}`: {e}"))),
-        Err(_) => {
-            Err(volume_error(path, format!("grid `{name}`: corrupt data (the reader failed)")))
-        }
-    }
-}
-
-/// What the first pass over a grid's voxels finds.
-struct Census {
-    lo: IVec3,
-    hi: IVec3,
-    /// Active voxels, tiles counted voxel by voxel.
-    voxels: u64,
-    max: f32,
-    /// The first value that is negative or not finite, with its index.
-    bad: Option<(IVec3, f32)>,
-    /// Bricks holding single voxels (tiles become constant bricks).
-    stored: std::collections::HashSet<IVec3>,
-}
-
-/// The copy of the grid in `layout` (chosen by [`Layout::Auto`]'s rule when asked), checked: no
-/// voxel missing, values finite and non-negative, within the layouts' limits.
-/// The first pass over a grid's tree: its bounds, active voxels, largest value and the bricks
-/// it stores; refused if its values or its count are wrong.
-fn census(read: &ReadGrid, path: &Path, name: &str) -> Result<Census> {
-    let err = |m: String| volume_error(path, m);
-    let mut c = Census {
-        lo: IVec3::MAX,
-        hi: IVec3::MIN,
-        voxels: 0,
-        max: 0.0,
-        bad: None,
-        stored: Default::default(),
-    };
-    let mut last_brick = None;
-    for_each_item(read, path, name, |p, edge, v| {
-        c.lo = c.lo.min(p);
-        c.hi = c.hi.max(p + IVec3::splat(edge - 1));
-        c.voxels += (edge as u64).pow(3);
-        if !v.is_finite() || v < 0.0 {
-            c.bad.get_or_insert((p, v));
-        }
-        c.max = c.max.max(v);
-        // Tiles become constant bricks (their table entries only).
-        if edge < BRICK && last_brick != Some(p >> 3) {
-            last_brick = Some(p >> 3);
-            c.stored.insert(p >> 3);
-        }
-    })?;
-    if let Some(n) = read.expected {
-        if n != c.voxels {
-            return Err(err(format!(
-                "grid `{name}`: the file states {n} active voxels but its tree holds {} \
-                 (corrupt?)",
-                c.voxels
-            )));
-        }
-    }
-    if c.voxels == 0 {
-        return Err(err(format!("grid `{name}` has no active voxels")));
-    }
-    if let Some((p, v)) = c.bad {
-        return Err(err(format!(
-            "grid `{name}` has a value of {v} at index {p}; its values (densities, temperatures) \
-             must be finite and non-negative"
-        )));
-    }
-    Ok(c)
-}
-
-fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<DensityGrid> {
-    let err = |m: String| volume_error(path, m);
-    let mut c = census(read, path, name)?;
-    // In 64 bits: far-apart voxels would overflow i32 extents and their u64 product.
-    let extent = (c.hi.as_i64vec3() - c.lo.as_i64vec3()) + glam::I64Vec3::ONE;
-    let dense_voxels = (extent.x as u128) * (extent.y as u128) * (extent.z as u128);
-    // Bricks from the multiple of BRICK at or below the lowest index.
-    let brick_lo: IVec3 = (c.lo >> 3) << 3;
-    let brick_count = ((c.hi.as_i64vec3() - brick_lo.as_i64vec3()) / BRICK as i64) + 1;
-    let table = (brick_count.x as u128) * (brick_count.y as u128) * (brick_count.z as u128);
-    let brick_bytes = 4 * (table + c.stored.len() as u128 * 512);
-    let dense_fits = dense_voxels <= MAX_VOXELS as u128;
-    let bricks_fit = table <= MAX_BRICKS as u128;
-    let chosen = match layout {
-        Layout::Auto
-            if dense_fits && (4 * dense_voxels <= SMALL || 4 * dense_voxels <= 2 * brick_bytes) =>
-        {
-            Layout::Dense
-        }
-        Layout::Auto if bricks_fit => Layout::Bricks,
-        Layout::Auto if dense_fits => Layout::Dense,
-        other => other,
-    };
-    let (origin, dims, storage) = match chosen {
-        Layout::Dense | Layout::Auto => {
-            if !dense_fits {
-                return Err(err(format!(
-                    "grid `{name}` spans {}×{}×{} voxels, more than haze's limit of {MAX_VOXELS} \
-                     for a dense copy{}",
-                    extent.x,
-                    extent.y,
-                    extent.z,
-                    if bricks_fit { "" } else { " and of 2048³ voxels for bricks" }
-                )));
-            }
-            let dims = extent.as_ivec3();
-            let data = fill_dense(read, path, name, c.lo, dims, dense_voxels as usize)?;
-            (c.lo, dims, Storage::Dense(data))
-        }
-        Layout::Bricks => {
-            if !bricks_fit {
-                return Err(err(format!(
-                    "grid `{name}` spans {}×{}×{} voxels, more than haze's limit of 2048³ voxels \
-                     for its brick table",
-                    extent.x, extent.y, extent.z
-                )));
-            }
-            let stored = c.stored.len();
-            drop(std::mem::take(&mut c.stored));
-            let b = fill_bricks(read, path, name, brick_lo, brick_count.as_ivec3(), stored)?;
-            let dims = (c.hi - brick_lo) + IVec3::ONE;
-            (brick_lo, dims, Storage::Bricks(b))
-        }
-    };
-    Ok(DensityGrid {
-        origin,
-        dims,
-        storage: std::sync::Arc::new(storage),
-        translation: read.translation,
-        voxel_size: read.voxel_size,
-        max_density: c.max,
-        active_voxels: c.voxels,
-        active_box: (c.lo, c.hi),
-    })
-}
-
-/// The second pass for the dense layout: every voxel of the `dims` box from `lo`, zero where the
-/// tree has none.
-fn fill_dense(
-    read: &ReadGrid,
-    path: &Path,
-    name: &str,
-    lo: IVec3,
-    dims: IVec3,
-    voxels: usize,
-) -> Result<Vec<f32>> {
-    let mut data = vec![0.0f32; voxels];
-    for_each_item(read, path, name, |p, edge, v| {
-        for z in 0..edge {
-            for y in 0..edge {
-                let q = p + IVec3::new(0, y, z) - lo;
-                let row = (q.x + dims.x * (q.y + dims.y * q.z)) as usize;
-                data[row..row + edge as usize].fill(v);
-            }
-        }
-    })?;
-    Ok(data)
-}
-
-/// The second pass for the bricks layout: the table of `count` bricks from `brick_lo`, tiles as
-/// constant bricks, `stored` bricks of voxels in the pool.
-fn fill_bricks(
-    read: &ReadGrid,
-    path: &Path,
-    name: &str,
-    brick_lo: IVec3,
-    count: IVec3,
-    stored: usize,
-) -> Result<Bricks> {
-    // Blocks of the table aligned to 8 bricks in index space, as OpenVDB's tiles of 128³
-    // voxels and more are: such a tile fills whole blocks.
-    let offset = (brick_lo >> 3) & 7;
-    let mut b = Bricks {
-        table: Blocked::new(count, offset, EMPTY),
-        constants: Vec::new(),
-        pool: Vec::with_capacity(stored * BRICK_VOXELS),
-    };
-    for_each_item(read, path, name, |p, edge, v| {
-        let q = p - brick_lo;
-        if edge >= BRICK {
-            // A tile: whole bricks of one value, stored once; whole blocks of the table
-            // where it covers them.
-            let n = edge / BRICK;
-            let entry = CONSTANT | b.constants.len() as u32;
-            b.constants.push(v);
-            let first = q >> 3;
-            let step = if n % 8 == 0 && b.table.starts_block(first) { 8 } else { 1 };
-            for z in (0..n).step_by(step) {
-                for y in (0..n).step_by(step) {
-                    for x in (0..n).step_by(step) {
-                        let k = first + IVec3::new(x, y, z);
-                        if step == 8 {
-                            b.table.fill_block(k, entry);
-                        } else {
-                            b.table.set(k, entry);
-                        }
-                    }
-                }
-            }
-        } else {
-            let k = q >> 3;
-            let mut e = b.table.get(k);
-            if e == EMPTY {
-                e = (b.pool.len() / BRICK_VOXELS) as u32;
-                b.table.set(k, e);
-                b.pool.resize(b.pool.len() + BRICK_VOXELS, 0.0);
-            }
-            if e & CONSTANT != 0 {
-                // A voxel in a brick a tile covers (two root nodes at one origin in a
-                // corrupt file): the brick becomes the tile's value with the voxel
-                // written over it, as the dense layout stores it.
-                let c = b.constants[(e & !CONSTANT) as usize];
-                e = (b.pool.len() / BRICK_VOXELS) as u32;
-                b.table.set(k, e);
-                b.pool.resize(b.pool.len() + BRICK_VOXELS, c);
-            }
-            let l = q & (BRICK - 1);
-            b.pool[e as usize * BRICK_VOXELS + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
-        }
-    })?;
-    Ok(b)
-}
-
 /// `v.floor()` without a call into libm (x86-64's baseline has no rounding instruction, and the
 /// call was 2.6 % of a vdb-cloud render): truncation towards zero, one down for negative
 /// non-integers. Exact for |x| < 2²³; larger values (and NaN, ±∞) are integral already and are
@@ -876,7 +456,9 @@ fn floor(v: Vec3) -> Vec3 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::vdbscan::Input;
     use super::*;
+    use std::path::Path;
 
     /// A corrupt file with two root nodes at one origin, a 128³ tile of 1 in the first and a leaf
     /// with a voxel of 2 at the origin in the second (tests/fuzz-corpus/vdb/tile-overlap.vdb:
@@ -1187,6 +769,7 @@ mod tests {
 mod layout_tests {
     use super::*;
     use crate::rng::{Purpose, Sampler};
+    use std::path::Path;
 
     fn media(name: &str) -> std::path::PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("media").join(name)
