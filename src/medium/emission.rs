@@ -1,12 +1,7 @@
 //! Where a grid medium emits, and how much at most: bounds on its emission over the unit cubes
-//! between voxel centres (interpolation cells), for the emitting-media sampler of the photon pass
-//! and of next-event estimation (`scene/light/media.rs`, whose module docs give the method).
-//! Inside an interpolation cell the density and the temperature are trilinear in the cell's eight
-//! corners, so neither leaves the corners' range, and σ_a L_e is at most the largest corner
-//! density times σ_a's largest channel per unit density times the largest L_e those ranges allow
-//! (the blackbody's through [`blackbody::max_mean_channel`], colour grids' through their corners'
-//! maxima). The cells are kept per majorant cell (8³ of them, a cumulative table of 512 bounds
-//! for each majorant cell with any emission), so the grid's layout stays private to the medium.
+//! between voxel centres (interpolation cells), kept per majorant cell, and the pick among them,
+//! for the emitting-media sampler (`scene/light/media.rs`, whose module docs derive the bound).
+//! They live here so that the grid's layout stays private to the medium.
 
 use super::blackbody;
 use super::blocks::Blocked;

@@ -339,7 +339,7 @@ impl SceneBuilder {
             ..
         } = desc
         else {
-            unreachable!("grid_medium is called for MediumDesc::Vdb only")
+            return Err(invalid(format!("media.{name}"), "not a grid medium"));
         };
         if !(density_scale.is_finite() && density_scale >= 0.0) {
             return Err(invalid(

@@ -4,7 +4,6 @@ use crate::shared::{Overrides, check_output_dir, thread_pool};
 use crate::signals::Interrupt;
 use anyhow::{Result, bail};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -97,8 +96,11 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<ExitCode> {
         region: args.region,
     };
     let total = series.len() as f64 * args.runs as f64 * time;
-    let bar =
-        bar(args.quiet, (total * 1000.0) as u64, "{elapsed_precise} [{bar:30}] ETA {eta} {msg}");
+    let bar = crate::shared::bar(
+        args.quiet,
+        (total * 1000.0) as u64,
+        "{elapsed_precise} [{bar:30}] ETA {eta} {msg}",
+    );
     let labels: Vec<String> = series.iter().map(|s| s.label.clone()).collect();
     let runs = args.runs;
     let log = crate::shared::LogLines::new(args.quiet);
@@ -152,7 +154,8 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
     check_validate_args(&args)?;
     let effort = if args.quick { Effort::QUICK } else { Effort::FULL };
     let pool = thread_pool(args.threads)?;
-    let bar = bar(false, 0, "{elapsed_precise} [{bar:30}] {pos}/{len} renders, ETA {eta}");
+    let bar =
+        crate::shared::bar(false, 0, "{elapsed_precise} [{bar:30}] {pos}/{len} renders, ETA {eta}");
     let start = Instant::now();
     let log = crate::shared::LogLines::new(false);
     let rows = pool.install(|| {
@@ -199,15 +202,6 @@ pub(crate) fn validate(args: ValidateArgs) -> Result<ExitCode> {
         bail!("{failed} of {} cases disagree with their references", rows.len());
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// A progress bar of `len` steps drawn by `template` (hidden if `quiet`).
-fn bar(quiet: bool, len: u64, template: &str) -> ProgressBar {
-    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(len) };
-    if let Ok(style) = ProgressStyle::with_template(template) {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
 }
 
 /// Refuses `haze validate` arguments that cannot work, before any render.

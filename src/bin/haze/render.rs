@@ -7,7 +7,7 @@ use clap::Args;
 use haze::progress::Status;
 use haze::settings::Integrator;
 use haze::{Partial, RenderSettings, Start};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -62,8 +62,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         bail!("--exposure must be a positive number, got {}", args.exposure);
     }
     let outs = outputs(&args, resumed.as_ref())?;
-    let (recorded, partial_path) = (outs.recorded.clone(), outs.partial_path.clone());
-    let start = start_of(&args, resumed, &settings, &partial_path)?;
+    let start = start_of(&args, resumed, &settings, &outs.partial_path)?;
     let ranged = args.first_iteration.is_some() || args.resume.is_some() || outs.partial_only;
     let pool = thread_pool(args.overrides.threads)?;
     let stop = interrupt.flag();
@@ -73,7 +72,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
             eprintln!("{g}");
         }
     }
-    let bar = if args.quiet { ProgressBar::hidden() } else { progress_bar(&settings) };
+    let bar = progress_bar(args.quiet, &settings);
     // Every write of the outputs — snapshots and the last — in one place: the partial render if
     // asked for, then the image unless the output is a partial alone; a second signal waits.
     let write = |part: &Partial, with_partial: bool| {
@@ -90,7 +89,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
             if last_snapshot.elapsed().as_secs_f64() >= every {
                 last_snapshot = Instant::now();
                 let mut part = s.partial();
-                part.output = recorded.clone();
+                part.output = outs.recorded.clone();
                 if let Err(e) = write(&part, true) {
                     snapshot_error.get_or_insert(e);
                 }
@@ -100,7 +99,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     interrupt.arm();
     let mut part =
         pool.install(|| haze::render_partial(&scene, &settings, start, &mut on_iteration, stop))?;
-    part.output = recorded.clone();
+    part.output = outs.recorded.clone();
     bar.finish_and_clear();
     if let Some(e) = snapshot_error {
         eprintln!("warning: a snapshot could not be written: {e}");
@@ -120,7 +119,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let written = write(&part, keep_partial)?;
     eprintln!("{}", summary(&part, &settings, &written, ranged, interrupt.name()));
     if interrupt.name().is_some() {
-        eprintln!("{}", resume_hint(&args, &settings, started, &partial_path));
+        eprintln!("{}", resume_hint(&args, &settings, started, &outs.partial_path));
     }
     warn_about(&part.info);
     Ok(interrupt.exit_code().unwrap_or(ExitCode::SUCCESS))
@@ -360,7 +359,8 @@ fn warn_about(i: &haze::RenderInfo) {
     }
 }
 
-fn progress_bar(settings: &RenderSettings) -> ProgressBar {
+/// The render's progress bar: iterations, or the time budget (hidden if `quiet`).
+fn progress_bar(quiet: bool, settings: &RenderSettings) -> ProgressBar {
     let (len, template) = match (settings.iterations, settings.time_limit) {
         (Some(n), _) => (n, "{elapsed_precise} [{bar:30}] {pos}/{len} it, {msg}, ETA {eta}"),
         (None, Some(t)) => {
@@ -369,11 +369,7 @@ fn progress_bar(settings: &RenderSettings) -> ProgressBar {
         // Neither (refused by the settings' validation): no length known in advance.
         (None, None) => (1, "{elapsed_precise} {spinner} {msg}"),
     };
-    let bar = ProgressBar::new(len);
-    if let Ok(style) = ProgressStyle::with_template(template) {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
+    crate::shared::bar(quiet, len, template)
 }
 
 fn update_bar(bar: &ProgressBar, s: &Status) {

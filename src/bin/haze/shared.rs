@@ -4,6 +4,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use haze::{RenderOptions, RenderSettings, Scene};
+use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 
 /// The scene's `[render]` settings overridden from the command line, and how to run.
@@ -145,4 +146,13 @@ pub(crate) fn default_output(scene: &Path, output: Option<PathBuf>, extension: &
     output.unwrap_or_else(|| {
         PathBuf::from(scene.file_stem().unwrap_or("render".as_ref())).with_extension(extension)
     })
+}
+
+/// A progress bar of `len` steps drawn by `template` (hidden if `quiet`).
+pub(crate) fn bar(quiet: bool, len: u64, template: &str) -> ProgressBar {
+    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(len) };
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
 }
