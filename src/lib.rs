@@ -75,6 +75,7 @@ mod medium;
 pub mod output;
 pub mod partial;
 mod photon;
+mod plan;
 pub mod progress;
 pub mod raybench;
 mod region;
@@ -140,9 +141,10 @@ pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};
 pub use partial::Partial;
 pub use photon::guide::MIN_GAIN as PILOT_MIN_GAIN;
+pub use plan::MIN_RADIUS_FRACTION;
 pub use render::{
-    MIN_RADIUS_FRACTION, MIN_TARGET_ITERATIONS, PILOT_PATHS, PhotonUsage, Start, memory_estimate,
-    photon_usage, render, render_partial,
+    MIN_TARGET_ITERATIONS, PILOT_PATHS, PhotonUsage, Start, memory_estimate, photon_usage, render,
+    render_partial,
 };
 pub use scene::{Scene, SceneBuilder};
 pub use settings::{RenderOptions, RenderSettings};

@@ -9,6 +9,7 @@ use crate::integrator::Method;
 pub use crate::integrator::ppm::PhotonUsage;
 use crate::output::{Image, RenderInfo};
 use crate::partial::Partial;
+use crate::plan::{MethodKind, Plan};
 use crate::progress::{Progress, Status};
 use crate::scene::Scene;
 use crate::settings::{Progression, RenderSettings};
@@ -89,19 +90,19 @@ pub fn render_partial(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<Partial> {
-    check_render(scene, settings)?;
+    let plan = Plan::new(scene, settings)?;
+    check_memory(scene, &plan)?;
     let fingerprint = scene.fingerprint();
-    let mut method = Method::new(scene, settings)?;
+    let mut method = Method::new(scene, &plan);
     let [width, height] = scene.camera.resolution;
     let (first, mut film, before) =
         starting_film(start, &mut method, scene, settings, &fingerprint)?;
     let start = Instant::now();
     let mut frame = crate::integrator::frame::Frame::new((width * height) as usize);
     let nonfinite = AtomicU64::new(0);
-    let diagonal = scene.diagonal() as f64;
     let truncated_before = scene.truncated_trackings();
     let info = |method: &Method, last: u64, nonfinite: &AtomicU64| {
-        let (radius, volume_radius) = method.radii(last.max(1));
+        let radii = method.radii(last.max(1));
         let iterations = (last + 1).saturating_sub(first);
         let (elapsed, nonfinite_before, truncated_before_run) = before
             .as_ref()
@@ -111,10 +112,10 @@ pub fn render_partial(
             first_iteration: first,
             iterations,
             light_paths: iterations * method.light_paths_per_iteration(),
-            initial_radius: settings.initial_radius(diagonal),
-            radius,
-            volume_initial_radius: settings.initial_volume_radius(diagonal),
-            volume_radius,
+            initial_radius: plan.surface.initial,
+            radius: radii.surface,
+            volume_initial_radius: plan.volume.initial,
+            volume_radius: radii.volume,
             elapsed: elapsed + start.elapsed().as_secs_f64(),
             scene: scene.source.clone(),
             nonfinite_samples: nonfinite_before + nonfinite.load(Ordering::Relaxed),
@@ -159,26 +160,19 @@ pub fn render_partial(
     Ok(Partial { info, film, fingerprint, state: method.save_state(), output: None })
 }
 
-/// Everything a render refuses before any work: invalid settings, impossible radii, a target
-/// region outside the image, more memory per iteration than the machine has.
-fn check_render(scene: &Scene, settings: &RenderSettings) -> Result<()> {
-    settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
-    check_radii(scene, settings)?;
-    if let Some(r) = settings.target_region {
-        let [w, h] = scene.camera.resolution;
-        r.check_within(w, h).map_err(|m| Error::Settings(format!("target_region: {m}")))?;
-    }
-    if let Some(total) = physical_memory() {
-        let need = memory_estimate(scene, settings);
-        if need > total {
-            return Err(Error::Settings(format!(
-                "photons = {} would need about {:.1} GB per iteration (measured on {PILOT_PATHS} \
-                 light paths of this scene), more than this machine's {:.1} GB; lower `photons`",
-                settings.photons,
-                need as f64 / 1e9,
-                total as f64 / 1e9
-            )));
-        }
+/// Refuses a render that would need more memory per iteration than the machine has (the
+/// settings themselves are checked by [`Plan::new`]).
+fn check_memory(scene: &Scene, plan: &Plan) -> Result<()> {
+    let Some(total) = physical_memory() else { return Ok(()) };
+    let need = memory_need(scene, plan);
+    if need > total {
+        return Err(Error::Settings(format!(
+            "photons = {} would need about {:.1} GB per iteration (measured on {PILOT_PATHS} \
+             light paths of this scene), more than this machine's {:.1} GB; lower `photons`",
+            plan.paths,
+            need as f64 / 1e9,
+            total as f64 / 1e9
+        )));
     }
     Ok(())
 }
@@ -245,58 +239,37 @@ fn watch(
     }
 }
 
-/// The smallest initial radius accepted, relative to the scene's bounding-box diagonal: below it
-/// positions in f32 cannot resolve the kernel and the photon density needed is absurd, so the
-/// image would come out black.
-pub const MIN_RADIUS_FRACTION: f64 = 1e-5;
-
-fn check_radii(scene: &Scene, settings: &RenderSettings) -> Result<()> {
-    if !settings.integrator.uses_photons() {
-        return Ok(());
-    }
-    let diagonal = scene.diagonal() as f64;
-    for (key, r) in [
-        ("radius", settings.initial_radius(diagonal)),
-        ("volume_radius", settings.initial_volume_radius(diagonal)),
-    ] {
-        if r < MIN_RADIUS_FRACTION * diagonal {
-            return Err(Error::Settings(format!(
-                "{key}: an initial radius of {r:e} is below {MIN_RADIUS_FRACTION:e} of the \
-                 scene's size (diagonal {diagonal:.4}); no photon would be found and the image \
-                 would be black"
-            )));
-        }
-    }
-    Ok(())
-}
-
 /// Light paths traced to measure photons stored per path for [`memory_estimate`].
 pub const PILOT_PATHS: u64 = 1000;
 
-/// Bytes one iteration is expected to need: the photons its light paths store (measured by
-/// tracing [`PILOT_PATHS`] of them; twice, for the photon maps built from them) and the image
-/// buffers. An estimate: paths vary.
-pub fn memory_estimate(scene: &Scene, settings: &RenderSettings) -> u64 {
+/// Bytes one iteration of a render of `scene` with `settings` is expected to need: the photons
+/// its light paths store (measured by tracing [`PILOT_PATHS`] of them; twice, for the photon maps
+/// built from them) and the image buffers. An estimate: paths vary.
+pub fn memory_estimate(scene: &Scene, settings: &RenderSettings) -> Result<u64> {
+    Ok(memory_need(scene, &Plan::new(scene, settings)?))
+}
+
+/// [`memory_estimate`] for a plan.
+fn memory_need(scene: &Scene, plan: &Plan) -> u64 {
     let [w, h] = scene.camera.resolution;
     // Film sums and squares (i128 × 3 each; twice with photons: the kernel-bias sums), the
     // iteration frame (value and bias), and the original PPM's two copies of its per-pixel
     // statistics (88 bytes each).
-    let photons = settings.integrator.uses_photons();
-    let per_pixel = 96 * (1 + photons as u64)
-        + 24
-        + if settings.progression == Progression::Original { 176 } else { 0 };
+    let photons = plan.method != MethodKind::Path;
+    let per_pixel =
+        96 * (1 + photons as u64) + 24 + if plan.method == MethodKind::Original { 176 } else { 0 };
     let image = w as u64 * h as u64 * per_pixel;
-    if !settings.integrator.uses_photons() || scene.lights.is_empty() {
+    if !photons || scene.lights.is_empty() {
         return image;
     }
-    let pilot = RenderSettings { photons: PILOT_PATHS.min(settings.photons), ..settings.clone() };
+    let pilot = plan.with_paths(PILOT_PATHS.min(plan.paths));
     let mut mapper = crate::integrator::ppm::PhotonMapper::new(scene, &pilot);
     mapper.trace(scene, 1, &AtomicBool::new(false));
     let [surface, volume] = mapper.stored();
     let per_path = (surface as f64 * std::mem::size_of::<crate::photon::Photon>() as f64
         + volume as f64 * std::mem::size_of::<crate::photon::VolumePhoton>() as f64)
-        / pilot.photons as f64;
-    image + (2.0 * per_path * settings.photons as f64) as u64
+        / pilot.paths as f64;
+    image + (2.0 * per_path * plan.paths as f64) as u64
 }
 
 /// What the photons of iteration `iteration` of a render with `settings` are used for: how many
@@ -309,8 +282,7 @@ pub fn photon_usage(
     iteration: u64,
     stop: &AtomicBool,
 ) -> Result<Option<PhotonUsage>> {
-    settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
-    let mut method = Method::new(scene, settings)?;
+    let mut method = Method::new(scene, &Plan::new(scene, settings)?);
     Ok(method.photon_usage(scene, iteration.max(1), stop))
 }
 

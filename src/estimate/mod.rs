@@ -129,7 +129,7 @@ mod tests {
             for dim in [2u32, 3] {
                 let n = if dim == 2 { 4_000 } else { 48_000 };
                 let extent = (2.0 * half as f64).powi(dim as i32);
-                let g = Gather { radius: r, kernel, inv_paths: 1.0 };
+                let g = Gather { kernel, inv_paths: 1.0 };
                 let (mut values, mut biases) = (Vec::new(), Vec::new());
                 for set in 0..400u64 {
                     let mut s = Sampler::new(11, Purpose::Photon, set, dim as u64);

@@ -18,11 +18,10 @@ use glam::Vec3;
 /// that light does not leak between the two sides of a thin wall or around a corner.
 pub const NORMAL_COS: f32 = 0.5;
 
-/// Density-estimation parameters of one iteration.
+/// Density-estimation parameters of one iteration. The radius is not one of them: a gather uses
+/// the radius its photon map was built with.
 #[derive(Clone, Copy, Debug)]
 pub struct Gather {
-    /// Query radius.
-    pub radius: f32,
     /// Kernel.
     pub kernel: Kernel,
     /// 1 / (light paths emitted this iteration).
@@ -44,10 +43,11 @@ pub(crate) fn surface_radiance(
     bounces: BounceRange,
     tally: Option<(&Tally, f32)>,
 ) -> Estimate {
-    let inv_r2 = 1.0 / (g.radius * g.radius);
+    let radius = map.radius();
+    let inv_r2 = 1.0 / (radius * radius);
     let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
     let norm = inv_r2 * g.inv_paths;
-    map.query_slots(p, g.radius, |ph, slot, d2| {
+    map.query_slots(p, radius, |ph, slot, d2| {
         if ph.n.dot(n) > NORMAL_COS && bounces.contains(ph.bounces) {
             let (k, k_inner) = g.kernel.eval_pair(d2 * inv_r2, 2);
             let term = ph.beta * k;

@@ -51,7 +51,8 @@ pub(crate) fn beam_radiance(
     tally: Option<(&Tally, f32)>,
 ) -> Estimate {
     let phase = medium.phase();
-    let inv_r2 = 1.0 / (g.radius * g.radius);
+    let radius = map.radius();
+    let inv_r2 = 1.0 / (radius * radius);
     let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
     let EyeSegment { o, w, t_max } = *segment;
     let norm = inv_r2 * g.inv_paths;
@@ -86,11 +87,12 @@ pub(crate) fn point_radiance(
     tally: Option<(&Tally, f32)>,
 ) -> Estimate {
     let phase = medium.phase();
-    let inv_r2 = 1.0 / (g.radius * g.radius);
+    let radius = grid.radius();
+    let inv_r2 = 1.0 / (radius * radius);
     let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
     let sigma_s = medium.sigma_s(x);
-    let norm = inv_r2 / g.radius * g.inv_paths;
-    grid.query_slots(x, g.radius, |ph, slot, d2| {
+    let norm = inv_r2 / radius * g.inv_paths;
+    grid.query_slots(x, radius, |ph, slot, d2| {
         if ph.medium as u32 == id && bounces.contains(ph.bounces) {
             let (k, k_inner) = g.kernel.eval_pair(d2 * inv_r2, 3);
             let weight = ph.beta * phase.eval(ph.d, -w);

@@ -56,10 +56,8 @@ pub(crate) struct CameraPass {
     /// events): an eye path of `max_bounces` specular bounces can still see an emitter, but it
     /// gathers photons only before its last event.
     pub max_bounces: u32,
-    /// Surface density estimation.
-    pub surface: Gather,
-    /// Volume density estimation.
-    pub volume: Gather,
+    /// Density estimation, surface and volume (each radius is the one its map was built with).
+    pub gather: Gather,
     /// Beam or point estimate in media.
     pub estimate: VolumeEstimate,
     /// Direct light by next-event estimation, photons only for light that interacted on its way
@@ -111,7 +109,7 @@ fn timed<T>(f: impl FnOnce() -> T) -> T {
 fn pixel_radiance(scene: &Scene, maps: &Maps, pass: &CameraPass, x: u32, y: u32) -> Estimate {
     trace_eye(scene, maps, pass, x, y, |p, n, f, beta, bounces| {
         let tally = maps.marks.map(|m| (&m.surface, luminance(beta)));
-        beta * surface_radiance(maps.surface, p, n, f, &pass.surface, bounces, tally)
+        beta * surface_radiance(maps.surface, p, n, f, &pass.gather, bounces, tally)
     })
 }
 
@@ -199,7 +197,7 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
                 path.l += path.beta * single;
                 let segment = EyeSegment { o, w: d, t_max };
                 let (beams, volume, bounces) =
-                    (self.maps.volume_beams, &self.pass.volume, self.bounces(path));
+                    (self.maps.volume_beams, &self.pass.gather, self.bounces(path));
                 let tally = self.maps.marks.map(|t| (&t.volume, luminance(path.beta)));
                 let e =
                     timed(|| beam_radiance(beams, m, id, &segment, &tr, volume, bounces, tally));
@@ -220,7 +218,7 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
                 }
                 let x = o + d * flight.t;
                 let (points, volume, bounces) =
-                    (self.maps.volume_points, &self.pass.volume, self.bounces(path));
+                    (self.maps.volume_points, &self.pass.gather, self.bounces(path));
                 let tally = self.maps.marks.map(|t| (&t.volume, luminance(path.beta)));
                 let e = timed(|| point_radiance(points, m, id, x, d, volume, bounces, tally));
                 self.add(path, e);

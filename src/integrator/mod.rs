@@ -16,10 +16,9 @@ pub(crate) mod ppm;
 pub(crate) mod single;
 pub(crate) mod walk;
 
-use crate::error::{Error, Result};
 use crate::film::Film;
+use crate::plan::{MethodKind, Plan, Radii};
 use crate::scene::Scene;
-use crate::settings::{Integrator, Progression, RenderSettings};
 use frame::{Frame, StepTimes};
 use original::OriginalPpm;
 use path::PathTracer;
@@ -37,22 +36,13 @@ pub(crate) enum Method {
 }
 
 impl Method {
-    /// The method `settings` ask for, ready to render `scene`.
-    pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Result<Self> {
-        Ok(match (settings.integrator, settings.progression) {
-            (Integrator::Path, _) => Method::Path(PathTracer::new(scene, settings)),
-            (_, Progression::Probabilistic) => {
-                Method::PhotonMapping(PhotonMapper::new(scene, settings))
-            }
-            (_, Progression::Original) => {
-                if !scene.media.is_empty() {
-                    return Err(Error::Settings(
-                        "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")".into(),
-                    ));
-                }
-                Method::Original(OriginalPpm::new(scene, settings))
-            }
-        })
+    /// The method `plan` names, ready to render `scene`.
+    pub(crate) fn new(scene: &Scene, plan: &Plan) -> Self {
+        match plan.method {
+            MethodKind::Path => Method::Path(PathTracer::new(scene, plan)),
+            MethodKind::PhotonMapping => Method::PhotonMapping(PhotonMapper::new(scene, plan)),
+            MethodKind::Original => Method::Original(OriginalPpm::new(scene, plan)),
+        }
     }
 
     /// Renders iteration `i` (1-based) into `frame`. Returns the time each step took, or `None`
@@ -125,9 +115,9 @@ impl Method {
 
     /// The surface and volume radii of iteration `i` (the original PPM reports its root-mean-square
     /// pixel radius).
-    pub(crate) fn radii(&self, i: u64) -> (f64, f64) {
+    pub(crate) fn radii(&self, i: u64) -> Radii {
         match self {
-            Method::PhotonMapping(m) => m.radii(i),
+            Method::PhotonMapping(m) => m.plan().radii(i),
             Method::Original(m) => m.radii(i),
             Method::Path(m) => m.radii(i),
         }

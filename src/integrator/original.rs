@@ -26,8 +26,8 @@ use crate::estimate::surface::NORMAL_COS;
 use crate::math::Rgb;
 use crate::photon::Photon;
 use crate::photon::map::PhotonGrid;
+use crate::plan::{Plan, Radii};
 use crate::scene::Scene;
-use crate::settings::RenderSettings;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -46,13 +46,13 @@ pub(crate) struct OriginalPpm {
 }
 
 impl OriginalPpm {
-    pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Self {
-        let mapper = PhotonMapper::new(scene, settings);
+    pub(crate) fn new(scene: &Scene, plan: &Plan) -> Self {
+        let mapper = PhotonMapper::new(scene, plan);
         let pixels = (scene.camera.resolution[0] * scene.camera.resolution[1]) as usize;
-        let r1 = mapper.initial_radius();
+        let (r1, alpha) = (plan.surface.initial, plan.surface.alpha);
         Self {
-            stats: OriginalState::new(pixels, r1, settings.alpha),
-            next: OriginalState::new(pixels, r1, settings.alpha),
+            stats: OriginalState::new(pixels, r1, alpha),
+            next: OriginalState::new(pixels, r1, alpha),
             radius: r1,
             mapper,
         }
@@ -69,8 +69,8 @@ impl OriginalPpm {
     }
 
     /// The radius the last iteration started from, and the volume schedule's (unused).
-    pub(crate) fn radii(&self, i: u64) -> (f64, f64) {
-        (self.radius, self.mapper.radii(i).1)
+    pub(crate) fn radii(&self, i: u64) -> Radii {
+        Radii { surface: self.radius, ..self.mapper.plan().radii(i) }
     }
 
     /// One iteration: photon pass, surface map for the largest pixel radius, gathering at every
@@ -94,7 +94,7 @@ impl OriginalPpm {
         self.mapper.build_surface_map(self.stats.max_radius());
         times.surface_map = lap(clock);
         let clock = Instant::now();
-        let pass = self.mapper.camera_pass(i, r, self.mapper.radii(i).1);
+        let pass = self.mapper.camera_pass(i);
         self.next.pixels.copy_from_slice(&self.stats.pixels);
         let paths = i * self.mapper.paths();
         let maps = self.mapper.maps();

@@ -23,52 +23,31 @@ use super::frame::StepTimes;
 use super::single::single_scattering;
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
-use crate::estimate::radius::radius;
 use crate::estimate::volume::EyeSegment;
 use crate::math::{Rgb, offset_origin};
 use crate::medium::Medium;
+use crate::plan::{Plan, Radii};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
-use crate::settings::RenderSettings;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
 
-/// The path tracer: its settings and the light sampler, kept between iterations.
+/// The path tracer: its plan and the light sampler, kept between iterations.
 pub(crate) struct PathTracer {
-    seed: u64,
-    max_bounces: u32,
-    /// The photon-mapping radii, reported but unused.
-    r1: f64,
-    alpha: f64,
-    r1_vol: f64,
-    volume_alpha: f64,
-    volume_dimension: u32,
+    plan: Plan,
     lights: LightSampler,
 }
 
 impl PathTracer {
-    pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Self {
-        let diagonal = scene.diagonal() as f64;
-        Self {
-            seed: settings.seed,
-            max_bounces: settings.max_bounces,
-            r1: settings.initial_radius(diagonal),
-            alpha: settings.alpha,
-            r1_vol: settings.initial_volume_radius(diagonal),
-            volume_alpha: settings.volume_alpha,
-            volume_dimension: settings.volume_dimension,
-            lights: LightSampler::new(&scene.lights, scene.shapes.len()),
-        }
+    pub(crate) fn new(scene: &Scene, plan: &Plan) -> Self {
+        Self { plan: plan.clone(), lights: LightSampler::new(&scene.lights, scene.shapes.len()) }
     }
 
-    /// The schedule's radii at iteration `i` (the path tracer does not use them).
-    pub(crate) fn radii(&self, i: u64) -> (f64, f64) {
-        (
-            radius(i, self.r1, self.alpha, 2),
-            radius(i, self.r1_vol, self.volume_alpha, self.volume_dimension),
-        )
+    /// The schedule's radii at iteration `i` (reported; the path tracer does not use them).
+    pub(crate) fn radii(&self, i: u64) -> Radii {
+        self.plan.radii(i)
     }
 
     /// One iteration: one path per pixel.
@@ -81,7 +60,8 @@ impl PathTracer {
         frame: &mut super::frame::Frame,
     ) -> Option<StepTimes> {
         let clock = Instant::now();
-        let pass = PathPass { seed: self.seed, iteration: i, max_bounces: self.max_bounces };
+        let pass =
+            PathPass { seed: self.plan.seed, iteration: i, max_bounces: self.plan.max_bounces };
         if !render_pass(scene, &self.lights, &pass, stop, nonfinite, frame) {
             return None;
         }

@@ -6,8 +6,6 @@
 
 use super::camera::{CameraPass, Maps, render_pass};
 use super::frame::StepTimes;
-use crate::estimate::kernel::Kernel;
-use crate::estimate::radius::radius;
 use crate::estimate::surface::Gather;
 use crate::photon::beam::{BeamMap, Thinning};
 use crate::photon::guide::{EmissionGuide, LightUse, PilotPath};
@@ -15,42 +13,20 @@ use crate::photon::map::PhotonGrid;
 use crate::photon::marks::{GatherMarks, Tally};
 use crate::photon::trace::{PhotonPass, Photons, trace_photons};
 use crate::photon::{Photon, VolumePhoton};
+use crate::plan::Plan;
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
 use crate::scene::light::media::EmitterPool;
-use crate::settings::{Integrator, PhotonGuiding, Progression, RenderSettings, VolumeEstimate};
+use crate::settings::VolumeEstimate;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
 
-/// A photon mapper's settings and buffers, kept between iterations.
+/// A photon mapper's plan and buffers, kept between iterations.
 pub(crate) struct PhotonMapper {
-    /// Render seed.
-    seed: u64,
-    /// Light paths per iteration.
-    paths: u64,
-    max_bounces: u32,
-    /// Light sampling for direct light, photons for the rest (the hybrid integrator).
-    hybrid: bool,
-    /// Next-event estimates per eye vertex in the hybrid.
-    direct_samples: u32,
-    /// The hybrid's light of emitting media from points at least this far from the receiver is
-    /// estimated by next-event estimation, nearer light by photons (infinite: all by photons;
-    /// so without emitting media or without the hybrid).
-    media_near: f32,
-    kernel: Kernel,
-    estimate: VolumeEstimate,
-    beam_cell_budget: Option<u32>,
-    /// Surface schedule: initial radius and α (dimension 2).
-    r1: f64,
-    alpha: f64,
-    /// Volume schedule: initial radius, α and dimension.
-    r1_vol: f64,
-    volume_alpha: f64,
-    volume_dimension: u32,
+    plan: Plan,
     lights: LightSampler,
-    /// Guide photon emission by a pilot pass (docs/theory.md); whether the pilot ran, the guide
-    /// it learnt (none if guiding could gain little), and what it found per light.
-    guiding: bool,
+    /// Whether the guiding pilot (docs/theory.md) ran, the guide it learnt (none if guiding could
+    /// gain little), and what it found per light.
     pilot_done: bool,
     guide: Option<EmissionGuide>,
     usage: Vec<LightUse>,
@@ -64,37 +40,10 @@ pub(crate) struct PhotonMapper {
 }
 
 impl PhotonMapper {
-    pub(crate) fn new(scene: &Scene, settings: &RenderSettings) -> Self {
-        let diagonal = scene.diagonal() as f64;
+    pub(crate) fn new(scene: &Scene, plan: &Plan) -> Self {
         Self {
-            seed: settings.seed,
-            paths: settings.photons,
-            max_bounces: settings.max_bounces,
-            hybrid: settings.integrator == Integrator::Hybrid,
-            direct_samples: settings.direct_samples,
-            media_near: match settings.emission_nee_distance {
-                Some(d)
-                    if settings.integrator == Integrator::Hybrid && scene.has_emissive_media() =>
-                {
-                    d as f32
-                }
-                _ => f32::INFINITY,
-            },
-            kernel: settings.kernel,
-            estimate: settings.volume_estimate,
-            beam_cell_budget: settings.beam_cell_budget,
-            r1: settings.initial_radius(diagonal),
-            alpha: settings.alpha,
-            r1_vol: settings.initial_volume_radius(diagonal),
-            volume_alpha: settings.volume_alpha,
-            volume_dimension: settings.volume_dimension,
+            plan: plan.clone(),
             lights: LightSampler::new(&scene.lights, scene.shapes.len()),
-            // The original PPM, a comparison mode, stays the classic method.
-            // Guiding learns over the lights' emission; photons of emitting media are not
-            // guided, and with them in the scene nothing is.
-            guiding: settings.photon_guiding == PhotonGuiding::Visibility
-                && settings.progression == Progression::Probabilistic
-                && !scene.has_emissive_media(),
             pilot_done: false,
             guide: None,
             usage: Vec::new(),
@@ -109,25 +58,17 @@ impl PhotonMapper {
 
     /// Light paths per iteration.
     pub(crate) fn paths(&self) -> u64 {
-        self.paths
+        self.plan.paths
     }
 
-    /// The initial surface radius.
-    pub(crate) fn initial_radius(&self) -> f64 {
-        self.r1
+    /// The plan it renders.
+    pub(crate) fn plan(&self) -> &Plan {
+        &self.plan
     }
 
     /// Surface and volume photons stored by the last photon pass.
     pub(crate) fn stored(&self) -> [u64; 2] {
         [self.photons.surface.len() as u64, self.photons.volume.len() as u64]
-    }
-
-    /// The surface and volume radii of iteration `i`.
-    pub(crate) fn radii(&self, i: u64) -> (f64, f64) {
-        (
-            radius(i, self.r1, self.alpha, 2),
-            radius(i, self.r1_vol, self.volume_alpha, self.volume_dimension),
-        )
     }
 
     /// One iteration: photon pass, photon maps, camera pass.
@@ -139,7 +80,6 @@ impl PhotonMapper {
         nonfinite: &AtomicU64,
         frame: &mut super::frame::Frame,
     ) -> Option<StepTimes> {
-        let (r, r_vol) = self.radii(i);
         let mut times = StepTimes::default();
         let clock = Instant::now();
         if !self.learn_guide(scene, stop) {
@@ -152,13 +92,14 @@ impl PhotonMapper {
         }
         times.photon_trace = lap(clock);
         let clock = Instant::now();
-        self.build_surface_map(r);
+        let radii = self.plan.radii(i);
+        self.build_surface_map(radii.surface);
         times.surface_map = lap(clock);
         let clock = Instant::now();
-        self.build_volume_map(scene, i, r_vol);
+        self.build_volume_map(scene, i, radii.volume);
         times.volume_map = lap(clock);
         let clock = Instant::now();
-        let pass = self.camera_pass(i, r, r_vol);
+        let pass = self.camera_pass(i);
         if !render_pass(scene, &self.maps(), &pass, stop, nonfinite, frame) {
             return None;
         }
@@ -171,22 +112,22 @@ impl PhotonMapper {
     /// if the hybrid estimates emitting media's light by next-event estimation. Returns `false`
     /// if `stop` was raised before it finished (the photons are then incomplete).
     pub(crate) fn trace(&mut self, scene: &Scene, i: u64, stop: &AtomicBool) -> bool {
-        if self.media_near.is_finite() {
-            self.emitters = EmitterPool::new(scene, self.seed, i);
+        if self.plan.media_near.is_finite() {
+            self.emitters = EmitterPool::new(scene, self.plan.seed, i);
         }
-        let pass = self.photon_pass(i, self.paths, false);
+        let pass = self.photon_pass(i, self.plan.paths, false);
         trace_photons(scene, &self.lights, self.guide.as_ref(), &pass, stop, &mut self.photons)
     }
 
     fn photon_pass(&self, iteration: u64, paths: u64, record: bool) -> PhotonPass {
         PhotonPass {
-            seed: self.seed,
+            seed: self.plan.seed,
             iteration,
             first_path: 0,
             paths,
-            max_bounces: self.max_bounces,
-            skip_direct: self.hybrid,
-            media_near: self.media_near,
+            max_bounces: self.plan.max_bounces,
+            skip_direct: self.plan.hybrid,
+            media_near: self.plan.media_near,
             record,
         }
     }
@@ -198,10 +139,10 @@ impl PhotonMapper {
     /// few visible paths to learn from; if the guide's estimated gain is small, photons are
     /// emitted unguided. Returns `false` if `stop` was raised first.
     fn learn_guide(&mut self, scene: &Scene, stop: &AtomicBool) -> bool {
-        if !self.guiding || self.pilot_done {
+        if !self.plan.guiding || self.pilot_done {
             return true;
         }
-        let per_round = self.paths.clamp(PILOT_PATHS.0, PILOT_PATHS.1);
+        let per_round = self.plan.paths.clamp(PILOT_PATHS.0, PILOT_PATHS.1);
         let mut paths: Vec<PilotPath> = Vec::new();
         for round in 0..PILOT_ROUNDS {
             let pass = PhotonPass {
@@ -239,7 +180,7 @@ impl PhotonMapper {
         for slot in 0..marks.volume.len() {
             let v = marks.volume.get(slot);
             if v > 0.0 {
-                let photon = match self.estimate {
+                let photon = match self.plan.estimate {
                     VolumeEstimate::Beam => self.volume_beams.origin(slot),
                     VolumeEstimate::Point => self.volume_points.origin(slot),
                 };
@@ -263,18 +204,18 @@ impl PhotonMapper {
         iteration: u64,
         stop: &AtomicBool,
     ) -> Option<GatherMarks> {
-        let (r, r_vol) = self.radii(iteration.max(1));
+        let radii = self.plan.radii(iteration.max(1));
         self.set_tracking(true);
-        self.build_surface_map(r);
-        self.build_volume_map(scene, iteration, r_vol);
+        self.build_surface_map(radii.surface);
+        self.build_volume_map(scene, iteration, radii.volume);
         self.set_tracking(false);
-        let volume = match self.estimate {
+        let volume = match self.plan.estimate {
             VolumeEstimate::Beam => self.volume_beams.len(),
             VolumeEstimate::Point => self.volume_points.len(),
         };
         let marks =
             GatherMarks { surface: Tally::new(self.surface_map.len()), volume: Tally::new(volume) };
-        let pass = self.camera_pass(iteration, r, r_vol);
+        let pass = self.camera_pass(iteration);
         let maps = Maps { marks: Some(&marks), ..self.maps() };
         let [w, h] = scene.camera.resolution;
         let mut frame = super::frame::Frame::new(w as usize * h as usize);
@@ -319,11 +260,11 @@ impl PhotonMapper {
 
     /// Step 2b, the volume photon map the volume estimate queries with radius `r_vol`.
     fn build_volume_map(&mut self, scene: &Scene, i: u64, r_vol: f64) {
-        match self.estimate {
+        match self.plan.estimate {
             VolumeEstimate::Beam => {
-                let thinning = self.beam_cell_budget.map(|budget| Thinning {
+                let thinning = self.plan.beam_cell_budget.map(|budget| Thinning {
                     budget,
-                    seed: self.seed,
+                    seed: self.plan.seed,
                     iteration: i,
                 });
                 self.volume_beams.build(
@@ -350,23 +291,20 @@ impl PhotonMapper {
         }
     }
 
-    /// Step 3's settings: the camera pass of iteration `i` with radii `r` and `r_vol`.
-    pub(crate) fn camera_pass(&self, i: u64, r: f64, r_vol: f64) -> CameraPass {
-        let gather = |radius: f64| Gather {
-            radius: radius as f32,
-            kernel: self.kernel,
-            inv_paths: 1.0 / self.paths as f32,
-        };
+    /// Step 3's settings: the camera pass of iteration `i` over the maps in hand (each gather
+    /// reads its radius from the map it queries: the radius the map was built with).
+    pub(crate) fn camera_pass(&self, i: u64) -> CameraPass {
+        let plan = &self.plan;
+        let gather = Gather { kernel: plan.kernel, inv_paths: 1.0 / plan.paths as f32 };
         CameraPass {
-            seed: self.seed,
+            seed: plan.seed,
             iteration: i,
-            max_bounces: self.max_bounces,
-            surface: gather(r),
-            volume: gather(r_vol),
-            estimate: self.estimate,
-            hybrid: self.hybrid,
-            direct_samples: self.direct_samples,
-            media_near: self.media_near,
+            max_bounces: plan.max_bounces,
+            gather,
+            estimate: plan.estimate,
+            hybrid: plan.hybrid,
+            direct_samples: plan.direct_samples,
+            media_near: plan.media_near,
         }
     }
 }

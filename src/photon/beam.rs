@@ -152,6 +152,11 @@ impl BeamMap {
         Self::default()
     }
 
+    /// The radius the map was last built for: its gathers' radius.
+    pub fn radius(&self) -> f32 {
+        self.radius
+    }
+
     /// True if the last build made view bins (pinhole camera, not too many entries).
     #[cfg(test)]
     pub fn has_view_bins(&self) -> bool {

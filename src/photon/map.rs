@@ -10,6 +10,8 @@ use glam::{IVec3, Vec3};
 
 /// The photon grid.
 pub struct PhotonGrid<P> {
+    /// The radius the grid was built for: its gathers' radius.
+    radius: f32,
     inv_cell: f32,
     mask: usize,
     /// start[b]..start[b + 1] indexes `photons` for bucket b.
@@ -24,6 +26,7 @@ pub struct PhotonGrid<P> {
 impl<P> Default for PhotonGrid<P> {
     fn default() -> Self {
         Self {
+            radius: 0.0,
             inv_cell: 1.0,
             mask: 0,
             start: Vec::new(),
@@ -53,6 +56,7 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
 
     /// Rebuilds the grid over `photons` for queries of radius `radius`.
     pub fn build(&mut self, photons: &[P], radius: f32) {
+        self.radius = radius;
         let cell = (2.0 * radius).max(1e-20);
         self.inv_cell = 1.0 / cell;
         let buckets = (2 * photons.len()).next_power_of_two().max(16);
@@ -106,6 +110,11 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
         hash(c) & self.mask
     }
 
+    /// The radius the grid was last built for.
+    pub fn radius(&self) -> f32 {
+        self.radius
+    }
+
     /// Calls `f(photon, squared distance)` for every photon within `radius` of `p`. `radius`
     /// must not exceed the radius the grid was built for.
     #[inline]
@@ -116,6 +125,7 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
     /// [`Self::query`], also passing each photon's slot.
     #[inline]
     pub fn query_slots(&self, p: Vec3, radius: f32, mut f: impl FnMut(&P, usize, f32)) {
+        debug_assert!(radius <= self.radius, "query radius {radius} > built {}", self.radius);
         if self.photons.is_empty() {
             return;
         }

@@ -1,0 +1,170 @@
+//! A render's settings resolved once against its scene. [`Plan::new`] is the one place where a
+//! render's settings are checked, alone and against the scene (the keys and their combinations,
+//! the initial radii against the scene's size, the target region against the image, the method
+//! against the scene's media), and where everything derived from them is worked out: the light
+//! paths per iteration, both radius schedules, the hybrid's choices, the photon maps' layout.
+//! The methods ([`crate::integrator`]) read the plan and nothing else of the settings.
+//!
+//! The radii of an iteration come from [`Plan::radii`] alone; the photon maps are built with
+//! them and keep them, and every gather reads its radius from the map it queries, so a map and
+//! its gathers cannot disagree.
+
+use crate::error::{Error, Result};
+use crate::estimate::kernel::Kernel;
+use crate::estimate::radius::radius;
+use crate::scene::Scene;
+use crate::settings::{Integrator, PhotonGuiding, Progression, RenderSettings, VolumeEstimate};
+
+/// The smallest initial radius accepted, relative to the scene's bounding-box diagonal: below it
+/// positions in f32 cannot resolve the kernel and the photon density needed is absurd, so the
+/// image would come out black.
+pub const MIN_RADIUS_FRACTION: f64 = 1e-5;
+
+/// A radius schedule of probabilistic PPM: r_{i+1}^d / r_i^d = (i + α)/(i + 1) from r_1
+/// ([`crate::estimate::radius`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Schedule {
+    /// r_1, in scene units.
+    pub initial: f64,
+    /// α in (0, 1).
+    pub alpha: f64,
+    /// The kernel's dimension d.
+    pub dimension: u32,
+}
+
+impl Schedule {
+    /// r_i, for iteration `i` ≥ 1.
+    pub fn radius(&self, i: u64) -> f64 {
+        radius(i, self.initial, self.alpha, self.dimension)
+    }
+}
+
+/// The radii of one iteration: the surface schedule's and the volume schedule's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Radii {
+    pub surface: f64,
+    pub volume: f64,
+}
+
+/// Which method renders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum MethodKind {
+    /// Probabilistic PPM, alone or with light sampling (the hybrid).
+    PhotonMapping,
+    /// The original PPM's per-pixel statistics (comparison mode, scenes without media).
+    Original,
+    /// The reference path tracer.
+    Path,
+}
+
+/// A render's settings, checked and resolved against its scene.
+#[derive(Clone, Debug)]
+pub(crate) struct Plan {
+    pub method: MethodKind,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Light paths per iteration.
+    pub paths: u64,
+    pub max_bounces: u32,
+    /// Light sampling for direct light, photons for the rest (the hybrid integrator).
+    pub hybrid: bool,
+    /// Next-event estimates per eye vertex in the hybrid.
+    pub direct_samples: u32,
+    /// The hybrid's light of emitting media from points at least this far from the receiver is
+    /// estimated by next-event estimation, nearer light by photons (infinite: all by photons; so
+    /// without emitting media or without the hybrid).
+    pub media_near: f32,
+    pub kernel: Kernel,
+    pub estimate: VolumeEstimate,
+    pub beam_cell_budget: Option<u32>,
+    /// Guide photon emission by a pilot pass: asked for, probabilistic PPM, and no emitting
+    /// media (their photons are not guided, and with them in the scene nothing is).
+    pub guiding: bool,
+    /// The surface schedule (dimension 2) …
+    pub surface: Schedule,
+    /// … and the volume schedule, for both volume estimates.
+    pub volume: Schedule,
+}
+
+impl Plan {
+    /// The plan for rendering `scene` with `settings`, or the first thing wrong with them (the
+    /// error names the setting).
+    pub fn new(scene: &Scene, settings: &RenderSettings) -> Result<Self> {
+        settings.validate().map_err(|e| Error::Settings(e.to_string()))?;
+        let diagonal = scene.diagonal() as f64;
+        let surface = Schedule {
+            initial: settings.initial_radius(diagonal),
+            alpha: settings.alpha,
+            dimension: 2,
+        };
+        let volume = Schedule {
+            initial: settings.initial_volume_radius(diagonal),
+            alpha: settings.volume_alpha,
+            dimension: settings.volume_dimension,
+        };
+        if settings.integrator.uses_photons() {
+            check_radii(diagonal, &surface, &volume)?;
+        }
+        if let Some(r) = settings.target_region {
+            let [w, h] = scene.camera.resolution;
+            r.check_within(w, h).map_err(|m| Error::Settings(format!("target_region: {m}")))?;
+        }
+        let method = match (settings.integrator, settings.progression) {
+            (Integrator::Path, _) => MethodKind::Path,
+            (_, Progression::Probabilistic) => MethodKind::PhotonMapping,
+            (_, Progression::Original) => MethodKind::Original,
+        };
+        if method == MethodKind::Original && !scene.media.is_empty() {
+            return Err(Error::Settings(
+                "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")".into(),
+            ));
+        }
+        let hybrid = settings.integrator == Integrator::Hybrid;
+        Ok(Self {
+            method,
+            seed: settings.seed,
+            paths: settings.photons,
+            max_bounces: settings.max_bounces,
+            hybrid,
+            direct_samples: settings.direct_samples,
+            media_near: match settings.emission_nee_distance {
+                Some(d) if hybrid && scene.has_emissive_media() => d as f32,
+                _ => f32::INFINITY,
+            },
+            kernel: settings.kernel,
+            estimate: settings.volume_estimate,
+            beam_cell_budget: settings.beam_cell_budget,
+            // The original PPM, a comparison mode, stays the classic method.
+            guiding: settings.photon_guiding == PhotonGuiding::Visibility
+                && settings.progression == Progression::Probabilistic
+                && !scene.has_emissive_media(),
+            surface,
+            volume,
+        })
+    }
+
+    /// The radii of iteration `i` ≥ 1: what the photon maps of the iteration are built with and
+    /// so what their gathers use.
+    pub fn radii(&self, i: u64) -> Radii {
+        Radii { surface: self.surface.radius(i), volume: self.volume.radius(i) }
+    }
+
+    /// This plan with `paths` light paths per iteration (the memory estimate's pilot).
+    pub fn with_paths(&self, paths: u64) -> Self {
+        Self { paths, ..self.clone() }
+    }
+}
+
+/// Refuses initial radii too small for the scene (see [`MIN_RADIUS_FRACTION`]).
+fn check_radii(diagonal: f64, surface: &Schedule, volume: &Schedule) -> Result<()> {
+    for (key, r) in [("radius", surface.initial), ("volume_radius", volume.initial)] {
+        if r < MIN_RADIUS_FRACTION * diagonal {
+            return Err(Error::Settings(format!(
+                "{key}: an initial radius of {r:e} is below {MIN_RADIUS_FRACTION:e} of the \
+                 scene's size (diagonal {diagonal:.4}); no photon would be found and the image \
+                 would be black"
+            )));
+        }
+    }
+    Ok(())
+}
