@@ -7,7 +7,7 @@
 //!   p(t) = (1/3) Σ_c σ_t,c e^{−σ_t,c t},  P(no collision before t_max) = (1/3) Σ_c e^{−σ_t,c t_max}.
 
 use super::phase::HenyeyGreenstein;
-use super::track::FreeFlight;
+use super::track::{DistancePdfs, FreeFlight};
 use crate::math::Rgb;
 use glam::Vec3;
 
@@ -59,13 +59,22 @@ impl Homogeneous {
         if t < t_max {
             let tr = (-sigma_t * t).exp();
             let pdf = (sigma_t * tr).element_sum() / 3.0;
-            FreeFlight { t, scattered: true, weight: tr / pdf }
+            let pdfs = DistancePdfs { forward: pdf, reverse: pdf };
+            FreeFlight { t, scattered: true, weight: tr / pdf, pdfs: Some(pdfs) }
         } else {
             let tr = self.transmittance(t_max);
             let p_pass = tr.element_sum() / 3.0;
             let weight = if p_pass > 0.0 { tr / p_pass } else { Rgb::ZERO };
-            FreeFlight { t: t_max, scattered: false, weight }
+            let pdfs = DistancePdfs { forward: p_pass, reverse: self.collision_pdf(t_max) };
+            FreeFlight { t: t_max, scattered: false, weight, pdfs: Some(pdfs) }
         }
+    }
+
+    /// The density per unit length with which [`Self::sample_free_flight`] collides at distance
+    /// `t` (the reverse density of a flight of length `t`: a homogeneous medium is the same both
+    /// ways): (1/3) Σ_c σ_t,c e^{−σ_t,c t}.
+    pub fn collision_pdf(&self, t: f32) -> f32 {
+        (self.sigma_t() * self.transmittance(t)).element_sum() / 3.0
     }
 }
 
@@ -106,7 +115,8 @@ mod tests {
 
     /// Free-flight distances with chromatic extinction follow the channel-averaged density
     /// p(t) = (1/3) Σ σ_c e^{−σ_c t}, and reaching t_max has the averaged probability (the
-    /// failure bin); the weights are T(t)/p(t) and T(t_max)/P.
+    /// failure bin); the weights are T(t)/p(t) and T(t_max)/P, and the reported pdfs, forward and
+    /// reverse, are those densities.
     #[test]
     fn free_flight_follows_the_averaged_density() {
         let h = Homogeneous {
@@ -129,6 +139,15 @@ mod tests {
                 assert!(
                     (f.weight.as_dvec3() - want).abs().max_element() < 1e-4 * want.max_element()
                 );
+                // The pdfs it reports: the density the histogram tests (the probability of
+                // the failure bin when it passes), and for the reverse decision the same
+                // density at the flight's length, a collision at the start seen from the end.
+                let pdfs = f.pdfs.expect("a homogeneous medium gives its pdfs");
+                let forward = if f.scattered { density(t) } else { tr.element_sum() / 3.0 };
+                let close = |a: f32, b: f64| (a as f64 - b).abs() <= 1e-4 * b;
+                assert!(close(pdfs.forward, forward), "{pdfs:?} {forward}");
+                assert!(close(pdfs.reverse, density(t)), "{pdfs:?}");
+                assert_eq!(pdfs.reverse, h.collision_pdf(f.t));
                 f.scattered.then(|| Sample::Point(DVec2::new(t / t_max, 0.5)))
             },
             |p| t_max * density(p.point().x * t_max),

@@ -12,4 +12,21 @@ pub struct FreeFlight {
     pub scattered: bool,
     /// Throughput factor: T(t)/p(t) at a collision, T(t_max)/P(no collision) otherwise.
     pub weight: Rgb,
+    /// The densities of the decision taken and of its reverse, where the medium can give them
+    /// exactly (homogeneous media); `None` for grids, whose null-scattering path densities
+    /// (Miller, Georgiev & Jarosz 2019) need majorants that do not depend on where a walk ends.
+    #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
+    pub pdfs: Option<DistancePdfs>,
+}
+
+/// The densities of a sampled free flight, for the weights of a method that could have sampled
+/// the same segment from either end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DistancePdfs {
+    /// Density per unit length of the collision sampled at t, or, if the flight reached the end
+    /// of its segment, the probability of that.
+    pub forward: f32,
+    /// The reverse decision: a free flight from where this one ended back to its start that
+    /// collides at the start (a density per unit length).
+    pub reverse: f32,
 }

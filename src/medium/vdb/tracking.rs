@@ -240,13 +240,18 @@ impl VdbMedium {
         });
         if !complete {
             // Cut: absorbed where the walk stopped.
-            return FreeFlight { t: last.min(t_max), scattered: true, weight: Rgb::ZERO };
+            return FreeFlight {
+                t: last.min(t_max),
+                scattered: true,
+                weight: Rgb::ZERO,
+                pdfs: None,
+            };
         }
         match hit {
             Some((t, sigma_t)) => {
-                FreeFlight { t, scattered: true, weight: Rgb::splat(1.0 / sigma_t) }
+                FreeFlight { t, scattered: true, weight: Rgb::splat(1.0 / sigma_t), pdfs: None }
             }
-            None => FreeFlight { t: t_max, scattered: false, weight: Rgb::ONE },
+            None => FreeFlight { t: t_max, scattered: false, weight: Rgb::ONE, pdfs: None },
         }
     }
 
@@ -289,14 +294,19 @@ impl VdbMedium {
             true
         });
         if !complete {
-            return FreeFlight { t: last.min(t_max), scattered: true, weight: Rgb::ZERO };
+            return FreeFlight {
+                t: last.min(t_max),
+                scattered: true,
+                weight: Rgb::ZERO,
+                pdfs: None,
+            };
         }
         match hit {
-            Some((t, weight)) => FreeFlight { t, scattered: true, weight },
+            Some((t, weight)) => FreeFlight { t, scattered: true, weight, pdfs: None },
             None => {
                 let mean = a.element_sum() / 3.0;
                 let weight = if mean > 0.0 { a / mean } else { Rgb::ZERO };
-                FreeFlight { t: t_max, scattered: false, weight }
+                FreeFlight { t: t_max, scattered: false, weight, pdfs: None }
             }
         }
     }

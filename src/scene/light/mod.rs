@@ -146,6 +146,21 @@ pub struct Emission {
     pub n: Vec3,
     /// Power carried: emitted radiance × cos / (pdf of position × pdf of direction), in W.
     pub beta: Rgb,
+    /// The densities of the origin and the direction sampled ([`Light::pdf_emission`]).
+    #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
+    pub pdfs: EmissionPdfs,
+}
+
+/// The densities with which a light emits from a point in a direction, given the light (the
+/// light sampler's pick is not in them).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmissionPdfs {
+    /// Density per unit area of the origin on the light's surface (on a directional light's
+    /// emitting rectangle); 1 for point and spot lights, whose origin is fixed (a delta).
+    pub pos: f32,
+    /// Density per steradian of the direction; 1 for a directional light, whose direction is
+    /// fixed (a delta).
+    pub dir: f32,
 }
 
 impl Light {
@@ -199,34 +214,46 @@ impl Light {
 
     /// Samples an emitted photon from three pairs of uniforms.
     pub fn sample_emission(&self, u_pick: f32, u_pos: Vec2, u_dir: Vec2) -> Emission {
-        match self {
-            Light::Point { position, .. } => Emission {
-                p: *position,
-                d: sample_uniform_sphere(u_dir),
-                n: Vec3::ZERO,
-                beta: self.power(),
-            },
+        let (p, d, n, beta) = match self {
+            Light::Point { position, .. } => {
+                (*position, sample_uniform_sphere(u_dir), Vec3::ZERO, self.power())
+            }
             Light::Spot { position, frame, intensity, cos_max, cos_start } => {
                 let local = sample_uniform_cone(u_dir, *cos_max);
                 let falloff = smoothstep(*cos_max, *cos_start, local.z);
                 let inv_pdf = 2.0 * PI * (1.0 - cos_max);
-                Emission {
-                    p: *position,
-                    d: frame.to_world(local),
-                    n: Vec3::ZERO,
-                    beta: *intensity * falloff * inv_pdf,
-                }
+                (*position, frame.to_world(local), Vec3::ZERO, *intensity * falloff * inv_pdf)
             }
             Light::Directional { direction, corner, edge_s, edge_t, .. } => {
                 let p = *corner + *edge_s * u_pos.x + *edge_t * u_pos.y;
-                Emission { p, d: *direction, n: Vec3::ZERO, beta: self.power() }
+                (p, *direction, Vec3::ZERO, self.power())
             }
             Light::Area { emitter, .. } => {
                 let (p, n) = emitter.sample_point(u_pick, u_pos);
-                let d = Frame::new(n).to_world(sample_cosine_hemisphere(u_dir));
-                Emission { p, d, n, beta: self.power() }
+                (p, Frame::new(n).to_world(sample_cosine_hemisphere(u_dir)), n, self.power())
             }
-        }
+        };
+        Emission { p, d, n, beta, pdfs: self.pdf_emission(n, d) }
+    }
+
+    /// The densities with which [`Self::sample_emission`] emits in direction `d` from a point of
+    /// the light whose outward normal is `n` (area lights; any value for the others): uniform
+    /// over the sphere for a point light and over its cone for a spot light (the falloff is in
+    /// the weight), uniform by area and cosine-weighted for an area light (zero behind it),
+    /// uniform over the emitting rectangle for a directional light.
+    pub fn pdf_emission(&self, n: Vec3, d: Vec3) -> EmissionPdfs {
+        let (pos, dir) = match self {
+            Light::Point { .. } => (1.0, 1.0 / (4.0 * PI)),
+            Light::Spot { frame, cos_max, .. } => {
+                let inside = frame.n.dot(d) >= *cos_max;
+                (1.0, if inside { 1.0 / (2.0 * PI * (1.0 - cos_max)) } else { 0.0 })
+            }
+            Light::Directional { edge_s, edge_t, .. } => {
+                (1.0 / edge_s.cross(*edge_t).length(), 1.0)
+            }
+            Light::Area { emitter, .. } => (1.0 / emitter.area(), n.dot(d).max(0.0) / PI),
+        };
+        EmissionPdfs { pos, dir }
     }
 
     /// Intensity of a spot light towards local cos θ (W/sr).
@@ -263,6 +290,10 @@ pub struct LightSample {
     /// Solid-angle density of `wi` at the point (area lights); `None` for delta lights, which
     /// no other strategy can sample.
     pub pdf: Option<f32>,
+    /// The reverse decision: the densities with which the light emits from the sampled point
+    /// towards the receiver, along −`wi` ([`Light::pdf_emission`]).
+    #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
+    pub reverse: EmissionPdfs,
 }
 
 impl Light {
@@ -301,13 +332,14 @@ impl Light {
         }
         let dist = d2.sqrt();
         let wi = v / dist;
+        let reverse = self.pdf_emission(point.n.unwrap_or(-wi), -wi);
         match self {
             Light::Point { intensity, .. } => {
-                Some(LightSample { wi, dist, value: *intensity / d2, pdf: None })
+                Some(LightSample { wi, dist, value: *intensity / d2, pdf: None, reverse })
             }
             Light::Spot { frame, .. } => {
                 let value = self.spot_intensity(frame.n.dot(-wi)) / d2;
-                Some(LightSample { wi, dist, value, pdf: None })
+                Some(LightSample { wi, dist, value, pdf: None, reverse })
             }
             Light::Area { radiance, emitter, .. } => {
                 let n = point.n.unwrap_or(-wi);
@@ -322,6 +354,7 @@ impl Light {
                     dist,
                     value: *radiance * (cos_l * area / d2),
                     pdf: Some(d2 / (cos_l * area)),
+                    reverse,
                 })
             }
             Light::Directional { .. } => self.li_from_infinity(),
@@ -361,6 +394,7 @@ impl Light {
                 dist: f32::INFINITY,
                 value: *irradiance,
                 pdf: None,
+                reverse: self.pdf_emission(Vec3::ZERO, *direction),
             }),
             _ => None,
         }
@@ -402,9 +436,10 @@ mod tests {
                 let e = point.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert_eq!(e.p, Vec3::ONE);
                 assert!((e.beta - point.power()).abs().max_element() < 1e-4);
+                assert_eq!(e.pdfs, point.pdf_emission(e.n, e.d));
                 Some(Sample::Direction(e.d))
             },
-            |_| 1.0 / (4.0 * PI64),
+            |d| point.pdf_emission(Vec3::ZERO, d.direction()).dir as f64,
         );
         let rect = area(rectangle(Vec3::ZERO));
         assert!((rect.power() - Rgb::splat(1.5 * PI * 2.0)).abs().max_element() < 1e-4);
@@ -412,10 +447,12 @@ mod tests {
             |s| {
                 let e = rect.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert!((e.n - Vec3::Z).length() < 1e-6 && e.beta == rect.power());
+                assert_eq!(e.pdfs, rect.pdf_emission(e.n, e.d));
                 let uv = DVec2::new((e.p.x as f64 + 1.0) / 2.0, e.p.y as f64 + 0.5);
                 Some(Sample::Point(uv))
             },
-            |_| 1.0,
+            // Per unit of the unit square, which maps onto the 2 × 1 rectangle.
+            |_| 2.0 * rect.pdf_emission(Vec3::Z, Vec3::Z).pos as f64,
         );
         ChiSquare::new("rectangle emission directions", Domain::Sphere, TESTS).run(
             |s| {
@@ -423,16 +460,18 @@ mod tests {
                     rect.sample_emission(s.next_f32(), s.next_2d(), s.next_2d()).d,
                 ))
             },
-            |d| d.direction().z.max(0.0) as f64 / PI64,
+            |d| rect.pdf_emission(Vec3::Z, d.direction()).dir as f64,
         );
         let sphere = area(Emitter::Sphere { center: Vec3::new(0.0, 0.0, 2.0), radius: 0.5 });
         ChiSquare::new("sphere emission positions", Domain::Sphere, TESTS).run(
             |s| {
                 let e = sphere.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert!(e.n.dot(e.d) >= 0.0, "emitted inwards");
+                assert_eq!(e.pdfs, sphere.pdf_emission(e.n, e.d));
                 Some(Sample::Direction((e.p - Vec3::new(0.0, 0.0, 2.0)) / 0.5))
             },
-            |_| 1.0 / (4.0 * PI64),
+            // Per steradian of the unit sphere: per unit area times r².
+            |_| 0.25 * sphere.pdf_emission(Vec3::Z, Vec3::Z).pos as f64,
         );
         // The spot's directions: uniform in its cone around +z (the falloff is in the weight),
         // and the photons carry its power on average (t-test on batch means).
@@ -450,12 +489,10 @@ mod tests {
             |s| {
                 let e = spot.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 betas.push(e.beta.x as f64);
+                assert_eq!(e.pdfs, spot.pdf_emission(e.n, e.d));
                 Some(Sample::Direction(e.d))
             },
-            |d| {
-                let inside = d.direction().z >= cos_max;
-                if inside { 1.0 / (2.0 * PI64 * (1.0 - cos_max as f64)) } else { 0.0 }
-            },
+            |d| spot.pdf_emission(Vec3::ZERO, d.direction()).dir as f64,
         );
         let batches: Vec<f64> = betas
             .chunks(betas.len() / 20)
@@ -488,10 +525,12 @@ mod tests {
                 let e = sun.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert_eq!(e.d, direction);
                 assert!((e.p - corner).dot(direction).abs() < 1e-3, "off the rectangle");
+                assert_eq!(e.pdfs, sun.pdf_emission(e.n, e.d));
                 let (u, v) = local(e.p);
                 Some(Sample::Point(DVec2::new(u as f64, v as f64)))
             },
-            |_| 1.0,
+            // Per unit of the unit square, which maps onto the rectangle.
+            |_| (area * sun.pdf_emission(Vec3::ZERO, direction).pos) as f64,
         );
     }
 
@@ -539,6 +578,10 @@ mod tests {
                 assert_eq!(rect.le(-Vec3::Z, -ls.wi), Rgb::splat(2.0));
                 assert_eq!(rect.le(-Vec3::Z, ls.wi), Rgb::ZERO);
                 assert!((ls.value.x as f64 - 2.0 / pdf as f64).abs() < 1e-3 * ls.value.x as f64);
+                // The reverse decision, the light emitting towards `at` from the point: uniform
+                // by area (1/2), cosine-weighted in direction, as its emission histograms show.
+                assert_eq!(ls.reverse, rect.pdf_emission(-Vec3::Z, -ls.wi));
+                assert!((ls.reverse.dir - cos_l / PI).abs() < 1e-6 && ls.reverse.pos == 0.5);
                 Some(Sample::Direction(ls.wi))
             },
             |d| rect_pdf(d.direction()),
@@ -561,7 +604,15 @@ mod tests {
             t * t / ((-n.dot(w)) * 4.0 * PI64 * r * r)
         };
         ChiSquare::new("sphere sample_li", Domain::Sphere, 2).run(
-            |s| sphere.sample_li(at, s).map(|ls| Sample::Direction(ls.wi)),
+            |s| {
+                let ls = sphere.sample_li(at, s)?;
+                let q = at + ls.wi * (ls.dist / (1.0 - 1e-4));
+                // The normal rebuilt from the shortened distance: equal to a few ulps.
+                let want = sphere.pdf_emission((q - c) / r as f32, -ls.wi);
+                assert_eq!(ls.reverse.pos, want.pos);
+                assert!((ls.reverse.dir - want.dir).abs() < 1e-5, "{:?} {want:?}", ls.reverse);
+                Some(Sample::Direction(ls.wi))
+            },
             |d| sphere_pdf(d.direction()),
         );
     }
@@ -575,6 +626,10 @@ mod tests {
         let ls = point.sample_li(p, &mut s).unwrap();
         assert_eq!((ls.wi, ls.dist, ls.pdf), (Vec3::Y, 2.0, None));
         assert!((ls.value - Rgb::splat(2.0)).abs().max_element() < 1e-6);
+        // Reverse decisions: the light emitting towards p, with the densities its emission
+        // histograms show.
+        let uniform = 1.0 / (4.0 * PI);
+        assert_eq!(ls.reverse, EmissionPdfs { pos: 1.0, dir: uniform });
         let (cos_max, cos_start) = (0.5f32, 0.9f32);
         let spot = Light::Spot {
             position: Vec3::new(0.5, 2.0, 0.0),
@@ -587,12 +642,19 @@ mod tests {
         let cos = -Vec3::new(0.3, -1.0, 0.0).normalize().y;
         let want = 8.0 * smoothstep(cos_max, cos_start, cos) / 4.0;
         assert!((ls.value.x - want).abs() < 1e-5 && ls.pdf.is_none());
+        let cone = 1.0 / (2.0 * PI * (1.0 - cos_max));
+        assert_eq!(ls.reverse, EmissionPdfs { pos: 1.0, dir: cone });
+        let behind = spot.sample_li(Vec3::new(0.5, 3.0, 0.0), &mut s).unwrap();
+        assert_eq!(behind.reverse.dir, 0.0, "outside the cone");
         let sun = Light::directional(-Vec3::Y, Rgb::splat(3.0), (-Vec3::ONE, Vec3::ONE));
         let ls = sun.sample_li(p, &mut s).unwrap();
         assert_eq!(
             (ls.wi, ls.dist, ls.value, ls.pdf),
             (Vec3::Y, f32::INFINITY, Rgb::splat(3.0), None)
         );
+        let Light::Directional { edge_s, edge_t, .. } = sun else { unreachable!() };
+        let pos = 1.0 / edge_s.cross(edge_t).length();
+        assert_eq!(ls.reverse, EmissionPdfs { pos, dir: 1.0 });
     }
 
     #[test]
