@@ -174,7 +174,7 @@ impl<F> PhotonEye<'_, F> {
         if !self.pass.hybrid {
             return Rgb::ZERO;
         }
-        let segment = EyeSegment { o: path.o, w: path.d, t_max };
+        let segment = EyeSegment { o: path.ray.o, w: path.ray.d, t_max };
         let scene = path.scene;
         let n = self.pass.direct_samples;
         let sum = (0..n).fold(Rgb::ZERO, |l, _| {
@@ -187,7 +187,7 @@ impl<F> PhotonEye<'_, F> {
 
 impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for PhotonEye<'_, F> {
     fn medium(&mut self, path: &mut EyePath, m: &Medium, id: u32, t_max: f32) -> Next {
-        let (o, d) = (path.o, path.d);
+        let (o, d) = (path.ray.o, path.ray.d);
         match self.pass.estimate {
             VolumeEstimate::Beam => {
                 // One transmittance estimate per segment, shared by every photon on it and by the
@@ -232,11 +232,11 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
     }
 
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
-        let wo = -path.d;
+        let wo = -path.ray.d;
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
         if self.pass.hybrid {
             let scene = path.scene;
-            let (lights, medium) = (self.maps.lights, path.medium);
+            let (lights, medium) = (self.maps.lights, path.ray.medium);
             let near = self.pass.media_near;
             let media = near.is_finite().then_some((near, self.maps.emitters));
             let s = &mut path.s;

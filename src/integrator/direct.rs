@@ -14,6 +14,7 @@ use crate::scene::Scene;
 use crate::scene::light::media::{EmitterPoint, EmitterPool};
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
+use crate::scene::step::medium_beyond;
 use glam::Vec3;
 use smallvec::SmallVec;
 
@@ -79,8 +80,7 @@ fn cross(
             }
         }
         let Some(hit) = hit else { break };
-        let shape = &scene.shapes[hit.tag as usize];
-        medium = shape.medium_after(medium, -d, d, hit.ng);
+        medium = medium_beyond(scene, hit, medium, d);
         t0 = t1;
     }
     match end {

@@ -100,7 +100,7 @@ struct PathEye<'a> {
 
 impl EyeVisitor for PathEye<'_> {
     fn medium(&mut self, path: &mut EyePath, m: &Medium, id: u32, t_max: f32) -> Next {
-        let (o, d) = (path.o, path.d);
+        let (o, d) = (path.ray.o, path.ray.d);
         // Direct light scattered once anywhere along the segment (equiangular and
         // transmittance-proportional distances, MIS); the path itself goes on by free flight
         // and scatters for the higher orders.
@@ -135,14 +135,16 @@ impl EyeVisitor for PathEye<'_> {
         if self.count_emission {
             path.beta * le
         } else if let Some((from, pdf_dir)) = &self.scattered_from {
-            path.beta * le * emission_weight(path.scene, self.lights, hit, -path.d, from, *pdf_dir)
+            path.beta
+                * le
+                * emission_weight(path.scene, self.lights, hit, -path.ray.d, from, *pdf_dir)
         } else {
             Rgb::ZERO
         }
     }
 
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
-        let wo = -path.d;
+        let wo = -path.ray.d;
         let ng = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
         let r = Receiver::surface(offset_origin(hit.p, ng, ng), ng);
         let last = path.last();
@@ -152,7 +154,7 @@ impl EyeVisitor for PathEye<'_> {
                 path.scene,
                 self.lights,
                 &r,
-                path.medium,
+                path.ray.medium,
                 &mut path.s,
                 |wi| material.eval(wo, wi, hit_ng, hit_ns, Transport::Radiance),
                 |wi| if last { 0.0 } else { material.pdf(wo, wi, hit_ng, hit_ns) },

@@ -10,11 +10,12 @@
 //! so an eye path depends only on (seed, iteration, pixel).
 
 use crate::accel::Hit;
-use crate::math::{Rgb, offset_origin};
+use crate::math::Rgb;
 use crate::medium::Medium;
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
-use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
+use crate::scene::material::{Material, Transport};
+use crate::scene::step::{Travel, Traveller, Vertex, step};
 use glam::{Vec2, Vec3};
 
 /// Where an eye path goes after a vertex.
@@ -37,11 +38,8 @@ pub(crate) struct EyePath<'a> {
     pub(crate) scene: &'a Scene,
     /// The pixel's random stream.
     pub(crate) s: Sampler,
-    /// Origin and direction of the current ray.
-    pub(crate) o: Vec3,
-    pub(crate) d: Vec3,
-    /// The medium the ray travels in.
-    pub(crate) medium: Option<u32>,
+    /// The current ray, the medium it travels in, the interfaces crossed.
+    pub(crate) ray: Travel,
     /// Path throughput.
     pub(crate) beta: Rgb,
     /// Radiance collected so far.
@@ -81,16 +79,6 @@ pub(crate) trait EyeVisitor {
     }
 }
 
-/// What one step of a walk did.
-enum Step {
-    /// Crossed a pass-through interface: not a scattering event.
-    Crossed,
-    /// Scattered (in a medium or at a surface): the path goes on from its new origin.
-    Scattered,
-    /// The path ends.
-    Stop,
-}
-
 impl<'a> EyePath<'a> {
     /// The path of pixel (x, y) of iteration `iteration`: its stream, and the jittered camera
     /// ray.
@@ -109,9 +97,7 @@ impl<'a> EyePath<'a> {
         EyePath {
             scene,
             s,
-            o: ray.o,
-            d: ray.d,
-            medium: scene.camera_medium,
+            ray: Travel::new(ray.o, ray.d, scene.camera_medium),
             beta: Rgb::ONE,
             l: Rgb::ZERO,
             depth: 0,
@@ -131,25 +117,16 @@ pub(crate) fn walk_eye(
     visitor: &mut impl EyeVisitor,
 ) -> Rgb {
     let mut path = EyePath::start(scene, seed, iteration, pixel, max_bounces);
-    let mut crossings = 0u32;
     loop {
         if path.depth >= path.max_bounces {
             // The last allowed event was a specular bounce: the path may still reach an emitter.
-            to_emitter(&mut path, visitor, &mut crossings);
+            to_emitter(&mut path, visitor);
             break;
         }
-        let hit = scene.intersect(path.o, path.d, f32::INFINITY);
-        let step = match through_medium(&mut path, hit.as_ref(), visitor) {
-            Some(step) => step,
-            None => match &hit {
-                Some(hit) => at_surface(&mut path, hit, visitor, &mut crossings),
-                None => Step::Stop,
-            },
-        };
-        match step {
-            Step::Crossed => continue,
-            Step::Stop => break,
-            Step::Scattered => {
+        match step(scene, &mut Walking { path: &mut path, visitor }) {
+            Vertex::Crossed => continue,
+            Vertex::Stop => break,
+            Vertex::Scattered => {
                 if !visitor.survive(&mut path) {
                     break;
                 }
@@ -160,111 +137,103 @@ pub(crate) fn walk_eye(
     path.l
 }
 
-/// The segment up to `hit` (or to infinity) in the path's medium, if it is in one. `None` when the
-/// path goes on to the surface.
-fn through_medium(
-    path: &mut EyePath,
-    hit: Option<&Hit>,
-    visitor: &mut impl EyeVisitor,
-) -> Option<Step> {
-    let id = path.medium?;
-    let scene = path.scene;
-    let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-    let m = &scene.media[id as usize];
-    // Emission along the segment, seen straight on: every integrator counts it in full (nothing
-    // else samples it from here). Nothing is drawn for a medium that does not emit.
-    path.l += path.beta * m.emitted(path.o, path.d, t_max, &mut path.s);
-    match visitor.medium(path, m, id, t_max) {
-        Next::Stop => Some(Step::Stop),
-        Next::Scatter { o, d } => {
-            (path.o, path.d) = (o, d);
-            Some(Step::Scattered)
-        }
-        Next::Continue => (path.beta.max_element() <= 0.0).then_some(Step::Stop),
-    }
+/// An eye path on its way, with the integrator that says what it does.
+struct Walking<'p, 'a, V> {
+    path: &'p mut EyePath<'a>,
+    visitor: &'p mut V,
 }
 
-/// The path reached a surface: an emitter counts, a pass-through interface is crossed, a diffuse
-/// surface goes to the visitor, a specular one turns the path.
-fn at_surface(
-    path: &mut EyePath,
-    hit: &Hit,
-    visitor: &mut impl EyeVisitor,
-    crossings: &mut u32,
-) -> Step {
-    let scene = path.scene;
-    let wo = -path.d;
-    let shape = &scene.shapes[hit.tag as usize];
-    if let Some(le) = scene.le(hit, wo) {
-        path.l += visitor.emission(path, hit, le);
+impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
+    fn travel(&mut self) -> &mut Travel {
+        &mut self.path.ray
     }
-    let material = &scene.materials[shape.material as usize];
-    match material {
-        Material::Interface => {
-            // Index-matched: straight on into the medium on the far side; not an event.
-            *crossings += 1;
-            if *crossings > MAX_CROSSINGS {
-                return Step::Stop;
-            }
-            path.medium = shape.medium_after(path.medium, wo, path.d, hit.ng);
-            path.o = offset_origin(hit.p, hit.ng, path.d);
-            Step::Crossed
-        }
-        Material::Diffuse { .. } => match visitor.diffuse(path, hit, material) {
+
+    /// Emission along the segment, seen straight on: every integrator counts it in full (nothing
+    /// else samples it from here; nothing is drawn for a medium that does not emit); then the
+    /// visitor's estimate.
+    fn in_medium(&mut self, scene: &Scene, id: u32, t_max: f32) -> Option<Vertex> {
+        let path = &mut *self.path;
+        let m = &scene.media[id as usize];
+        let Travel { o, d, .. } = path.ray;
+        path.l += path.beta * m.emitted(o, d, t_max, &mut path.s);
+        match self.visitor.medium(path, m, id, t_max) {
+            Next::Stop => Some(Vertex::Stop),
             Next::Scatter { o, d } => {
-                (path.o, path.d) = (o, d);
-                Step::Scattered
+                (path.ray.o, path.ray.d) = (o, d);
+                Some(Vertex::Scattered)
             }
-            Next::Continue | Next::Stop => Step::Stop,
-        },
-        _ => {
-            // A specular bounce may be the path's last event: what it sees next can only be an
-            // emitter (`to_emitter`).
-            let (u, u_lobe) = (path.s.next_2d(), path.s.next_f32());
-            let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Radiance)
-            else {
-                return Step::Stop;
-            };
-            path.beta *= bs.weight;
-            path.medium = shape.medium_after(path.medium, wo, bs.wi, hit.ng);
-            path.o = offset_origin(hit.p, hit.ng, bs.wi);
-            path.d = bs.wi;
-            visitor.after_specular(path);
-            Step::Scattered
+            Next::Continue => (path.beta.max_element() <= 0.0).then_some(Vertex::Stop),
         }
+    }
+
+    /// An emitter counts, whatever else the surface does.
+    fn reached(&mut self, scene: &Scene, hit: &Hit) {
+        if let Some(le) = scene.le(hit, -self.path.ray.d) {
+            self.path.l += self.visitor.emission(self.path, hit, le);
+        }
+    }
+
+    /// A diffuse surface goes to the visitor, a specular one turns the path.
+    fn at_surface(&mut self, scene: &Scene, hit: &Hit, material: &Material) -> Vertex {
+        let path = &mut *self.path;
+        if let Material::Diffuse { .. } = material {
+            return match self.visitor.diffuse(path, hit, material) {
+                Next::Scatter { o, d } => {
+                    (path.ray.o, path.ray.d) = (o, d);
+                    Vertex::Scattered
+                }
+                Next::Continue | Next::Stop => Vertex::Stop,
+            };
+        }
+        // A specular bounce may be the path's last event: what it sees next can only be an
+        // emitter (`to_emitter`).
+        let (u, u_lobe) = (path.s.next_2d(), path.s.next_f32());
+        let wo = -path.ray.d;
+        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Radiance) else {
+            return Vertex::Stop;
+        };
+        path.beta *= bs.weight;
+        path.ray.leave(scene, hit, bs.wi);
+        self.visitor.after_specular(path);
+        Vertex::Scattered
     }
 }
 
-/// Follows a path that has used up its events (its last one a specular bounce) straight on,
-/// through pass-through interfaces and the transmittance of the media it crosses, and adds the
-/// emitter it reaches, if any: light → (specular)* → eye paths of exactly `max_bounces` events.
-fn to_emitter(path: &mut EyePath, visitor: &mut impl EyeVisitor, crossings: &mut u32) {
-    let scene = path.scene;
-    loop {
-        let hit = scene.intersect(path.o, path.d, f32::INFINITY);
-        if let Some(id) = path.medium {
-            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-            let m = &scene.media[id as usize];
-            path.l += path.beta * m.emitted(path.o, path.d, t_max, &mut path.s);
-            path.beta *= m.transmittance(path.o, path.d, t_max, &mut path.s);
-            if path.beta.max_element() <= 0.0 {
-                return;
-            }
-        }
-        let Some(hit) = hit else { return };
-        let wo = -path.d;
-        let shape = &scene.shapes[hit.tag as usize];
-        if let Some(le) = scene.le(&hit, wo) {
-            path.l += visitor.emission(path, &hit, le);
-        }
-        if scene.materials[shape.material as usize] != Material::Interface {
-            return;
-        }
-        *crossings += 1;
-        if *crossings > MAX_CROSSINGS {
-            return;
-        }
-        path.medium = shape.medium_after(path.medium, wo, path.d, hit.ng);
-        path.o = offset_origin(hit.p, hit.ng, path.d);
+/// A path that has used up its events (its last one a specular bounce), followed straight on
+/// through pass-through interfaces and the transmittance of the media it crosses to the emitter
+/// it reaches, if any: light → (specular)* → eye paths of exactly `max_bounces` events.
+struct ToEmitter<'p, 'a, V> {
+    path: &'p mut EyePath<'a>,
+    visitor: &'p mut V,
+}
+
+impl<V: EyeVisitor> Traveller for ToEmitter<'_, '_, V> {
+    fn travel(&mut self) -> &mut Travel {
+        &mut self.path.ray
     }
+
+    fn in_medium(&mut self, scene: &Scene, id: u32, t_max: f32) -> Option<Vertex> {
+        let path = &mut *self.path;
+        let m = &scene.media[id as usize];
+        let Travel { o, d, .. } = path.ray;
+        path.l += path.beta * m.emitted(o, d, t_max, &mut path.s);
+        path.beta *= m.transmittance(o, d, t_max, &mut path.s);
+        (path.beta.max_element() <= 0.0).then_some(Vertex::Stop)
+    }
+
+    fn reached(&mut self, scene: &Scene, hit: &Hit) {
+        if let Some(le) = scene.le(hit, -self.path.ray.d) {
+            self.path.l += self.visitor.emission(self.path, hit, le);
+        }
+    }
+
+    fn at_surface(&mut self, _scene: &Scene, _hit: &Hit, _material: &Material) -> Vertex {
+        Vertex::Stop
+    }
+}
+
+/// Adds the emitter a path that has used up its events reaches, if any ([`ToEmitter`]).
+fn to_emitter(path: &mut EyePath, visitor: &mut impl EyeVisitor) {
+    let scene = path.scene;
+    while step(scene, &mut ToEmitter { path, visitor }) == Vertex::Crossed {}
 }

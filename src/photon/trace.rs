@@ -12,7 +12,8 @@ use crate::math::{Rgb, offset_origin};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
-use crate::scene::material::{MAX_CROSSINGS, Material, Transport};
+use crate::scene::material::{Material, Transport};
+use crate::scene::step::{Travel, Traveller, Vertex, step};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -123,28 +124,16 @@ struct LightPath {
     /// Its index in the pass.
     index: u32,
     s: Sampler,
-    o: Vec3,
-    d: Vec3,
+    /// The current ray, the medium it travels in, the interfaces crossed.
+    ray: Travel,
     beta: Rgb,
-    medium: Option<u32>,
     /// Scattering events so far (medium collisions and surface scatterings; pass-through
-    /// interfaces are not events), and pass-through crossings.
+    /// interfaces are not events).
     bounces: u32,
-    crossings: u32,
     /// Where a medium emitted it (`None` for a light's): in the hybrid its first event stores a
     /// photon if it is a medium collision or lies nearer than `PhotonPass::media_near`, the light
     /// next-event estimation leaves to photons.
     emitted_at: Option<Vec3>,
-}
-
-/// What the photon did at a step.
-enum Step {
-    /// Goes on from its new origin.
-    Continue,
-    /// Reached the surface of the hit (or nothing) without a collision.
-    Surface,
-    /// The path ends.
-    Stop,
 }
 
 /// Where photons are emitted: by power and uniformly, or by a guide.
@@ -178,12 +167,9 @@ fn trace_path(
             let path = LightPath {
                 index: index as u32,
                 s,
-                o: e.p,
-                d: e.d,
+                ray: Travel::new(e.p, e.d, Some(e.medium)),
                 beta: e.beta / p_media,
-                medium: Some(e.medium),
                 bounces: 0,
-                crossings: 0,
                 emitted_at: Some(e.p),
             };
             follow(scene, pass, path, out);
@@ -222,128 +208,103 @@ fn trace_path(
     let o = if e.n == Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
     let medium = scene.light_media[li];
     let index = index as u32;
-    let (bounces, crossings, emitted_at) = (0, 0, None);
-    let path = LightPath { index, s, o, d: e.d, beta, medium, bounces, crossings, emitted_at };
+    let (ray, bounces, emitted_at) = (Travel::new(o, e.d, medium), 0, None);
+    let path = LightPath { index, s, ray, beta, bounces, emitted_at };
     follow(scene, pass, path, out);
 }
 
 /// Follows a light path from its start to its end, storing its photons in `out`.
-fn follow(scene: &Scene, pass: &PhotonPass, mut path: LightPath, out: &mut Photons) {
-    loop {
-        let hit = scene.intersect(path.o, path.d, f32::INFINITY);
-        match collide(scene, pass, &mut path, hit.as_ref(), out) {
-            Step::Continue => continue,
-            Step::Stop => return,
-            Step::Surface => {}
-        }
-        let Some(hit) = hit else { return };
-        if let Step::Stop = at_surface(scene, pass, &mut path, &hit, out) {
-            return;
-        }
-    }
+fn follow(scene: &Scene, pass: &PhotonPass, path: LightPath, out: &mut Photons) {
+    let mut tracing = Tracing { pass, path, out };
+    while step(scene, &mut tracing) != Vertex::Stop {}
 }
 
-/// The segment up to `hit` in the path's medium, if it is in one: a collision stores a volume
-/// photon and scatters the path.
-fn collide(
-    scene: &Scene,
-    pass: &PhotonPass,
-    path: &mut LightPath,
-    hit: Option<&Hit>,
-    out: &mut Photons,
-) -> Step {
-    let Some(id) = path.medium else { return Step::Surface };
-    let m = &scene.media[id as usize];
-    let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-    let (o, d) = (path.o, path.d);
-    let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
-    let before = path.beta;
-    path.beta *= flight.weight;
-    if !flight.scattered {
-        return if path.beta.max_element() <= 0.0 { Step::Stop } else { Step::Surface };
-    }
-    let p = o + d * flight.t;
-    let sigma_s = m.sigma_s(p);
-    // The collision's survival weight T/p(t) · σ_s: the albedo σ_s/σ_t for a grey medium.
-    let survival = path.beta * sigma_s;
-    // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s. Where
-    // σ_s = 0 the photon could only ever be weighted by zero: skip it.
-    if sigma_s.max_element() > 0.0 {
-        if let Some(scale) = stored(path, pass, p, false) {
-            let bounces = path.bounces as u16;
-            let beta = path.beta * scale;
-            out.volume.push(VolumePhoton { p, d, beta, medium: id as u16, bounces });
-            if pass.record {
-                out.volume_path.push(path.index);
-            }
-        }
-    }
-    path.bounces += 1;
-    if path.bounces >= pass.max_bounces {
-        return Step::Stop;
-    }
-    let ps = m.phase().sample(d, path.s.next_2d());
-    // The scattering weight is σ_s times the phase sample's value over its pdf (1 for exact
-    // sampling); the path survives with the albedo (the throughput before the flight against
-    // after the scattering), so absorbing and dense media end paths where they absorb light.
-    let survival = survival * (ps.value / ps.pdf);
-    let Some(b) = roulette(before, survival, path.s.next_f32()) else {
-        return Step::Stop;
-    };
-    (path.beta, path.o, path.d) = (b, p, ps.wi);
-    Step::Continue
+/// A light path on its way, the pass it belongs to and the photons it leaves.
+struct Tracing<'a> {
+    pass: &'a PhotonPass,
+    path: LightPath,
+    out: &'a mut Photons,
 }
 
-/// The path reached a surface: crossed if pass-through, else a diffuse surface stores a photon,
-/// and the path scatters.
-fn at_surface(
-    scene: &Scene,
-    pass: &PhotonPass,
-    path: &mut LightPath,
-    hit: &Hit,
-    out: &mut Photons,
-) -> Step {
-    let (wo, d) = (-path.d, path.d);
-    let shape = &scene.shapes[hit.tag as usize];
-    let material = &scene.materials[shape.material as usize];
-    if *material == Material::Interface {
-        // Index-matched: the photon goes straight on into the medium on the far side.
-        path.crossings += 1;
-        if path.crossings > MAX_CROSSINGS {
-            return Step::Stop;
-        }
-        path.medium = shape.medium_after(path.medium, wo, d, hit.ng);
-        path.o = offset_origin(hit.p, hit.ng, d);
-        return Step::Continue;
+impl Traveller for Tracing<'_> {
+    fn travel(&mut self) -> &mut Travel {
+        &mut self.path.ray
     }
-    if material.is_diffuse() {
-        // Power convention (see `Photon`): store the path throughput as it arrives.
-        let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-        if let Some(scale) = stored(path, pass, hit.p, true) {
-            let (beta, bounces) = (path.beta * scale, path.bounces as u16);
-            out.surface.push(Photon { p: hit.p, n, beta, bounces });
-            if pass.record {
-                out.surface_path.push(path.index);
+
+    /// A collision stores a volume photon and scatters the path.
+    fn in_medium(&mut self, scene: &Scene, id: u32, t_max: f32) -> Option<Vertex> {
+        let Tracing { pass, path, out } = self;
+        let m = &scene.media[id as usize];
+        let Travel { o, d, .. } = path.ray;
+        let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
+        let before = path.beta;
+        path.beta *= flight.weight;
+        if !flight.scattered {
+            return (path.beta.max_element() <= 0.0).then_some(Vertex::Stop);
+        }
+        let p = o + d * flight.t;
+        let sigma_s = m.sigma_s(p);
+        // The collision's survival weight T/p(t) · σ_s: the albedo σ_s/σ_t for a grey medium.
+        let survival = path.beta * sigma_s;
+        // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s. Where
+        // σ_s = 0 the photon could only ever be weighted by zero: skip it.
+        if sigma_s.max_element() > 0.0 {
+            if let Some(scale) = stored(path, pass, p, false) {
+                let bounces = path.bounces as u16;
+                let beta = path.beta * scale;
+                out.volume.push(VolumePhoton { p, d, beta, medium: id as u16, bounces });
+                if pass.record {
+                    out.volume_path.push(path.index);
+                }
             }
         }
+        path.bounces += 1;
+        if path.bounces >= pass.max_bounces {
+            return Some(Vertex::Stop);
+        }
+        let ps = m.phase().sample(d, path.s.next_2d());
+        // The scattering weight is σ_s times the phase sample's value over its pdf (1 for exact
+        // sampling); the path survives with the albedo (the throughput before the flight against
+        // after the scattering), so absorbing and dense media end paths where they absorb light.
+        let survival = survival * (ps.value / ps.pdf);
+        let Some(b) = roulette(before, survival, path.s.next_f32()) else {
+            return Some(Vertex::Stop);
+        };
+        (path.beta, path.ray.o, path.ray.d) = (b, p, ps.wi);
+        Some(Vertex::Scattered)
     }
-    path.bounces += 1;
-    if path.bounces >= pass.max_bounces {
-        return Step::Stop;
+
+    /// A diffuse surface stores a photon, and the path scatters.
+    fn at_surface(&mut self, scene: &Scene, hit: &Hit, material: &Material) -> Vertex {
+        let Tracing { pass, path, out } = self;
+        let wo = -path.ray.d;
+        if material.is_diffuse() {
+            // Power convention (see `Photon`): store the path throughput as it arrives.
+            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+            if let Some(scale) = stored(path, pass, hit.p, true) {
+                let (beta, bounces) = (path.beta * scale, path.bounces as u16);
+                out.surface.push(Photon { p: hit.p, n, beta, bounces });
+                if pass.record {
+                    out.surface_path.push(path.index);
+                }
+            }
+        }
+        path.bounces += 1;
+        if path.bounces >= pass.max_bounces {
+            return Vertex::Stop;
+        }
+        let u = path.s.next_2d();
+        let u_lobe = path.s.next_f32();
+        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance) else {
+            return Vertex::Stop;
+        };
+        let Some(b) = roulette(path.beta, path.beta * bs.weight, path.s.next_f32()) else {
+            return Vertex::Stop;
+        };
+        path.beta = b;
+        path.ray.leave(scene, hit, bs.wi);
+        Vertex::Scattered
     }
-    let u = path.s.next_2d();
-    let u_lobe = path.s.next_f32();
-    let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, u_lobe, Transport::Importance) else {
-        return Step::Stop;
-    };
-    let Some(b) = roulette(path.beta, path.beta * bs.weight, path.s.next_f32()) else {
-        return Step::Stop;
-    };
-    path.beta = b;
-    path.medium = shape.medium_after(path.medium, wo, bs.wi, hit.ng);
-    path.o = offset_origin(hit.p, hit.ng, bs.wi);
-    path.d = bs.wi;
-    Step::Continue
 }
 
 /// Runs the photon pass into `out` (cleared first), emitting photons by power or by a guide.

@@ -9,6 +9,7 @@ pub(crate) mod light;
 mod load;
 pub(crate) mod material;
 pub(crate) mod shape;
+pub(crate) mod step;
 
 pub use builder::{MAX_TESSELLATION, SceneBuilder};
 pub use camera::{CameraDesc, Lens, MAX_PIXELS};
