@@ -1,13 +1,9 @@
-//! A homogeneous medium with RGB coefficients.
-//!
-//! Free-flight sampling with chromatic σ_t picks a channel uniformly and samples its exponential;
-//! the distance's pdf is then the average over channels (the balance heuristic, Miller et al. 2019
-//! §4; pbrt-v4 §14.2.2), so no channel's weight blows up:
-//!
-//!   p(t) = (1/3) Σ_c σ_t,c e^{−σ_t,c t},  P(no collision before t_max) = (1/3) Σ_c e^{−σ_t,c t_max}.
+//! A homogeneous medium with RGB coefficients. The tracker (`medium/tracker.rs`) tracks it in
+//! closed form ([`Constant`]): it is one majorant segment whose majorant is the extinction
+//! everywhere.
 
 use super::phase::HenyeyGreenstein;
-use super::track::{DistancePdfs, FreeFlight};
+use super::tracker::{Constant, Tracked};
 use crate::math::Rgb;
 use glam::Vec3;
 
@@ -30,52 +26,54 @@ impl Homogeneous {
     pub fn sigma_t(&self) -> Rgb {
         self.sigma_a + self.sigma_s
     }
+}
 
-    /// Transmittance over a distance `t`.
+impl Tracked for Homogeneous {
     #[inline]
-    pub fn transmittance(&self, t: f32) -> Rgb {
-        if t.is_infinite() {
-            return Rgb::select(self.sigma_t().cmpgt(Vec3::ZERO), Rgb::ZERO, Rgb::ONE);
-        }
-        (-self.sigma_t() * t).exp()
+    fn constant(&self) -> Option<Constant> {
+        Some(Constant { sigma_t: self.sigma_t(), source: self.sigma_a * self.emission })
     }
 
-    /// ∫₀^t_max T(0, t) σ_a L_e dt, the emitted radiance reaching the start of a segment of
-    /// length `t_max` (may be infinite): σ_a L_e (1 − e^{−σ_t t_max}) / σ_t per channel, exactly.
-    pub fn emitted(&self, t_max: f32) -> Rgb {
-        let sigma_t = self.sigma_t();
-        let source = self.sigma_a * self.emission;
-        // σ_a ≤ σ_t, so a channel without extinction has no source either.
-        let absorbed = -(-sigma_t * t_max).map(f32::exp_m1);
-        Rgb::select(sigma_t.cmpgt(Rgb::ZERO), source * absorbed / sigma_t, Rgb::ZERO)
-    }
-
-    /// Samples a collision before `t_max` (may be infinite) from uniforms `u_channel`, `u`.
-    pub fn sample_free_flight(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
-        let sigma_t = self.sigma_t();
-        let c = ((u_channel * 3.0) as usize).min(2);
-        let s = sigma_t[c];
-        let t = if s > 0.0 { -(1.0 - u).ln() / s } else { f32::INFINITY };
-        if t < t_max {
-            let tr = (-sigma_t * t).exp();
-            let pdf = (sigma_t * tr).element_sum() / 3.0;
-            let pdfs = DistancePdfs { forward: pdf, reverse: pdf };
-            FreeFlight { t, scattered: true, weight: tr / pdf, pdfs: Some(pdfs) }
-        } else {
-            let tr = self.transmittance(t_max);
-            let p_pass = tr.element_sum() / 3.0;
-            let weight = if p_pass > 0.0 { tr / p_pass } else { Rgb::ZERO };
-            let pdfs = DistancePdfs { forward: p_pass, reverse: self.collision_pdf(t_max) };
-            FreeFlight { t: t_max, scattered: false, weight, pdfs: Some(pdfs) }
+    /// One piece, the whole ray, at the largest channel's extinction.
+    fn majorants(
+        &self,
+        _o: Vec3,
+        _d: Vec3,
+        t_max: f32,
+        _rate: f32,
+        mut f: impl FnMut(f32, f32, f32) -> bool,
+    ) {
+        let mu = self.sigma_t().max_element();
+        if mu > 0.0 && t_max > 0.0 {
+            f(mu, 0.0, t_max);
         }
     }
 
-    /// The density per unit length with which [`Self::sample_free_flight`] collides at distance
-    /// `t` (the reverse density of a flight of length `t`: a homogeneous medium is the same both
-    /// ways): (1/3) Σ_c σ_t,c e^{−σ_t,c t}.
-    pub fn collision_pdf(&self, t: f32) -> f32 {
-        (self.sigma_t() * self.transmittance(t)).element_sum() / 3.0
+    fn sigma_t(&self, _p: Vec3) -> f32 {
+        self.sigma_t().max_element()
     }
+
+    fn coloured(&self) -> bool {
+        let t = self.sigma_t();
+        t.max_element() != t.min_element()
+    }
+
+    fn tint(&self, _p: Vec3) -> Rgb {
+        let t = self.sigma_t();
+        if t.max_element() > 0.0 { t / t.max_element() } else { Rgb::ONE }
+    }
+
+    fn emission_at(&self, p: Vec3) -> (Rgb, Rgb, Rgb) {
+        let max = self.sigma_t().max_element();
+        let share = if max > 0.0 { self.sigma_a / max } else { Rgb::ZERO };
+        (Tracked::tint(self, p), share, self.emission)
+    }
+
+    fn emits(&self) -> bool {
+        (self.sigma_a * self.emission).max_element() > 0.0
+    }
+
+    fn cut(&self) {}
 }
 
 #[cfg(test)]
@@ -95,21 +93,22 @@ mod tests {
             phase: HenyeyGreenstein { g: 0.0 },
             emission: Rgb::new(2.0, 5.0, 0.25),
         };
+        let c = h.constant().unwrap();
         let len = 1.7f64;
         let n = 100_000;
-        for c in 0..3 {
-            let (sa, st, le) = (h.sigma_a[c] as f64, h.sigma_t()[c] as f64, h.emission[c] as f64);
+        for k in 0..3 {
+            let (sa, st, le) = (h.sigma_a[k] as f64, h.sigma_t()[k] as f64, h.emission[k] as f64);
             let quad: f64 = (0..n)
                 .map(|i| {
                     let t = len * (i as f64 + 0.5) / n as f64;
                     sa * le * (-st * t).exp() * len / n as f64
                 })
                 .sum();
-            let got = h.emitted(len as f32)[c] as f64;
-            assert!((got - quad).abs() <= 1e-4 * quad.max(1e-12), "channel {c}: {got} vs {quad}");
-            let infinite = h.emitted(f32::INFINITY)[c] as f64;
+            let got = c.emitted(len as f32)[k] as f64;
+            assert!((got - quad).abs() <= 1e-4 * quad.max(1e-12), "channel {k}: {got} vs {quad}");
+            let infinite = c.emitted(f32::INFINITY)[k] as f64;
             let want = if st > 0.0 { sa * le / st } else { 0.0 };
-            assert!((infinite - want).abs() <= 1e-6 * want.max(1e-12), "channel {c}: {infinite}");
+            assert!((infinite - want).abs() <= 1e-6 * want.max(1e-12), "channel {k}: {infinite}");
         }
     }
 
@@ -126,12 +125,13 @@ mod tests {
             emission: Rgb::ZERO,
         };
         let (sigma_t, t_max) = (h.sigma_t().as_dvec3(), 1.2f64);
+        let c = h.constant().unwrap();
         let density = |t: f64| ((sigma_t * (-sigma_t * t).exp()).element_sum()) / 3.0;
         let mut test = ChiSquare::new("homogeneous free flight", Domain::Square, 1);
         test.bins = [48, 1];
         test.run(
             |s| {
-                let f = h.sample_free_flight(t_max as f32, s.next_f32(), s.next_f32());
+                let f = c.free_flight(t_max as f32, s.next_f32(), s.next_f32());
                 let t = f.t as f64;
                 let tr = (-sigma_t * t).exp();
                 let want =
@@ -147,7 +147,7 @@ mod tests {
                 let close = |a: f32, b: f64| (a as f64 - b).abs() <= 1e-4 * b;
                 assert!(close(pdfs.forward, forward), "{pdfs:?} {forward}");
                 assert!(close(pdfs.reverse, density(t)), "{pdfs:?}");
-                assert_eq!(pdfs.reverse, h.collision_pdf(f.t));
+                assert_eq!(pdfs.reverse, c.collision_pdf(f.t));
                 f.scattered.then(|| Sample::Point(DVec2::new(t / t_max, 0.5)))
             },
             |p| t_max * density(p.point().x * t_max),

@@ -19,6 +19,7 @@ pub mod grid;
 pub mod homogeneous;
 pub mod phase;
 pub(crate) mod track;
+pub(crate) mod tracker;
 pub mod vdb;
 pub(crate) mod vdbscan;
 
@@ -29,7 +30,22 @@ use homogeneous::Homogeneous;
 use phase::HenyeyGreenstein;
 use smallvec::SmallVec;
 pub use track::FreeFlight;
+pub use tracker::SegmentTransmittance;
+use tracker::Tracked;
 use vdb::VdbMedium;
+
+/// Runs `$e` with `$m` bound to the medium's own kind, as the tracker sees it.
+macro_rules! tracked {
+    ($medium:expr, $m:ident => $e:expr) => {
+        match $medium {
+            Medium::Homogeneous($m) => $e,
+            Medium::Vdb(v) => {
+                let $m = &**v;
+                $e
+            }
+        }
+    };
+}
 
 /// The rate, in multiples of a grid's majorants, of the ratio tracking behind the transmittance
 /// step function of an eye segment the beam estimate gathers along ([`Medium::segment`]): every
@@ -53,44 +69,6 @@ pub enum Medium {
     Homogeneous(Homogeneous),
     /// Coefficients proportional to an OpenVDB density grid.
     Vdb(Box<VdbMedium>),
-}
-
-/// Transmittance along one ray segment, T(0, t), for many lookups (the beam estimate asks it for
-/// every photon on the segment).
-#[derive(Clone, Debug)]
-// One per eye segment, on the stack, never stored in bulk: the step function's 32 inline steps
-// (no allocation on most segments) are worth the size.
-#[allow(clippy::large_enum_variant)]
-pub enum SegmentTransmittance {
-    /// One ratio-tracking estimate kept as a step function (heterogeneous media).
-    Steps(vdb::TransmittanceSteps),
-    /// exp(−σ_t t).
-    Exponential {
-        /// Extinction.
-        sigma_t: Rgb,
-    },
-    /// exp(−σ_t t) with the same σ_t in every channel: one exponential instead of three.
-    Grey {
-        /// Extinction.
-        sigma_t: f32,
-    },
-}
-
-impl SegmentTransmittance {
-    /// T(0, t).
-    #[inline]
-    pub fn at(&self, t: f32) -> Rgb {
-        match self {
-            // A zero coefficient transmits fully even over an infinite distance (not 0·∞ = NaN).
-            SegmentTransmittance::Exponential { sigma_t } => {
-                Rgb::select(sigma_t.cmpgt(Rgb::ZERO), (-*sigma_t * t).exp(), Rgb::ONE)
-            }
-            SegmentTransmittance::Grey { sigma_t } => {
-                Rgb::splat(if *sigma_t > 0.0 { (-sigma_t * t).exp() } else { 1.0 })
-            }
-            SegmentTransmittance::Steps(steps) => vdb::steps_at(steps, t),
-        }
-    }
 }
 
 /// Distances along a segment, [t0, t1], with density proportional to its transmittance: a
@@ -169,7 +147,7 @@ impl<'a> TransmittanceDistance<'a> {
         }
         match self.tr {
             SegmentTransmittance::Steps(steps) => {
-                vdb::steps_at(steps, t).max_element() / self.total
+                tracker::steps_at(steps, t).max_element() / self.total
             }
             _ => self.sigma * (-self.sigma * (t - self.t0)).exp() / self.total,
         }
@@ -222,7 +200,7 @@ impl Medium {
         }
     }
 
-    /// Trackings cut at [`vdb::MAX_TRACKING_STEPS`] so far (always 0 for homogeneous media).
+    /// Trackings cut at [`tracker::MAX_TRACKING_STEPS`] so far (always 0 for homogeneous media).
     pub fn truncated_trackings(&self) -> u64 {
         match self {
             Medium::Homogeneous(_) => 0,
@@ -233,10 +211,7 @@ impl Medium {
     /// Samples a collision along `o + t d`, 0 < t < `t_max` (`t_max` may be infinite).
     #[inline]
     pub fn sample_free_flight(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> FreeFlight {
-        match self {
-            Medium::Homogeneous(h) => h.sample_free_flight(t_max, s.next_f32(), s.next_f32()),
-            Medium::Vdb(v) => v.sample_free_flight(o, d, t_max, s),
-        }
+        tracked!(self, m => tracker::free_flight(m, o, d, t_max, s))
     }
 
     /// Transmittance along `o + t d` for 0 < t < `t_max` (an unbiased estimate for grids).
@@ -246,7 +221,7 @@ impl Medium {
     }
 
     /// [`Self::transmittance`], a grid's ratio tracking at `rate` ≥ 1 times its majorants (lower
-    /// variance for more steps; [`VdbMedium::transmittance_at_rate`]).
+    /// variance for more steps; [`tracker::transmittance`]).
     #[inline]
     pub fn transmittance_at_rate(
         &self,
@@ -256,10 +231,7 @@ impl Medium {
         rate: f32,
         s: &mut Sampler,
     ) -> Rgb {
-        match self {
-            Medium::Homogeneous(h) => h.transmittance(t_max),
-            Medium::Vdb(v) => v.transmittance_at_rate(o, d, t_max, rate, s),
-        }
+        tracked!(self, m => tracker::transmittance(m, o, d, t_max, rate, s))
     }
 
     /// A transmittance function T(0, t) along `o + t d` for t < `t_max`: exact for homogeneous
@@ -274,19 +246,7 @@ impl Medium {
         rate: f32,
         s: &mut Sampler,
     ) -> SegmentTransmittance {
-        match self {
-            Medium::Homogeneous(h) => {
-                let sigma_t = h.sigma_t();
-                if sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z {
-                    SegmentTransmittance::Grey { sigma_t: sigma_t.x }
-                } else {
-                    SegmentTransmittance::Exponential { sigma_t }
-                }
-            }
-            Medium::Vdb(v) => {
-                SegmentTransmittance::Steps(v.transmittance_steps(o, d, t_max, rate, s))
-            }
-        }
+        tracked!(self, m => tracker::segment(m, o, d, t_max, rate, s))
     }
 
     /// The part [t0, t1] of o + t d, 0 ≤ t ≤ `t_max`, where the medium can scatter: all of it
@@ -302,10 +262,7 @@ impl Medium {
 
     /// True if the medium emits light somewhere (a source σ_a L_e that is not zero everywhere).
     pub fn emits(&self) -> bool {
-        match self {
-            Medium::Homogeneous(h) => (h.sigma_a * h.emission).max_element() > 0.0,
-            Medium::Vdb(v) => v.emits(),
-        }
+        tracked!(self, m => Tracked::emits(m))
     }
 
     /// Emitted radiance L_e at `p`: the medium adds σ_a(p) L_e(p) per unit length.
@@ -331,13 +288,7 @@ impl Medium {
     /// (and no random numbers drawn) if the medium does not emit.
     #[inline]
     pub fn emitted(&self, o: Vec3, d: Vec3, t_max: f32, s: &mut Sampler) -> Rgb {
-        if !self.emits() {
-            return Rgb::ZERO;
-        }
-        match self {
-            Medium::Homogeneous(h) => h.emitted(t_max),
-            Medium::Vdb(v) => v.emitted(o, d, t_max, s),
-        }
+        tracked!(self, m => tracker::emitted(m, o, d, t_max, s))
     }
 
     /// Scattering coefficient at `p`.
@@ -368,7 +319,7 @@ mod tests {
     /// path-traced on scenes/cumulus.toml), and an ordinary segment still samples finitely.
     #[test]
     fn distances_on_a_vanishing_segment_are_declined() {
-        let steps = SegmentTransmittance::Steps(vdb::TransmittanceSteps::new());
+        let steps = SegmentTransmittance::Steps(tracker::TransmittanceSteps::new());
         let grey = SegmentTransmittance::Exponential { sigma_t: Rgb::splat(2.0) };
         for tr in [&steps, &grey] {
             assert!(TransmittanceDistance::new(tr, 0.0, 1e-45).is_none());

@@ -513,10 +513,6 @@ const LONG_FUNCTIONS: &[(&str, &str)] = &[
         "one traversal loop of the BVH4 (stack, four-wide box tests, leaves, pass-through hits)",
     ),
     (
-        "medium/vdb/tracking.rs::tentative",
-        "one tracking walk: the DDA over majorant cells with the bisection of dense pieces",
-    ),
-    (
         "integrator/single.rs::single_scattering",
         "two strategies that share their draws and densities; the draw order is the image's",
     ),

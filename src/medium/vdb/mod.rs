@@ -29,11 +29,13 @@
 //! ([`super::BEAM_SEGMENT_RATE`]), is kept as a step function
 //! T(0, t) = Π_{t_k < t} (1 − σ_t(t_k)/(4 μ̄(t_k))) and looked up for every photon on the segment
 //! (each prefix of a ratio-tracking run is itself an unbiased ratio-tracking estimate). Below a
-//! small estimate ratio tracking plays Russian roulette ([`tracking::TRACKING_ROULETTE`]).
+//! small estimate ratio tracking plays Russian roulette (`medium/tracker.rs`).
 //!
 //! A coloured extinction is tracked per channel against the largest channel's majorant: ratio
 //! tracking per channel, and spectral delta tracking with the balance heuristic over a hero
-//! channel ([`VdbMedium::sample_free_flight`]; docs/theory.md).
+//! channel (`tracker::spectral_free_flight`; docs/theory.md). The grid describes itself to the
+//! one tracker (`medium/tracker.rs`), which does all of this for any medium: its majorants in
+//! `tracking.rs`.
 
 mod fields;
 mod tracking;
@@ -47,15 +49,6 @@ use crate::math::Rgb;
 use fields::index_from_grid;
 use glam::{Affine3A, IVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
-
-/// Tentative collisions one tracking may draw along one segment: a last guard. Real media never
-/// come near it (ratio tracking stops when its estimate reaches zero, delta tracking at its first
-/// real collision, and cells whose majorant dwarfs the density along the ray are bisected); it
-/// keeps anything still unforeseen from making one iteration take minutes or never end. A
-/// tracking that reaches the cap ends as if the segment were opaque (transmittance 0, the free
-/// flight absorbed) — biased, so every such event is counted and
-/// reported ([`VdbMedium::truncated_trackings`], the render's `truncatedTrackings`).
-pub const MAX_TRACKING_STEPS: u32 = 1 << 18;
 
 /// Expected tentative collisions in one majorant cell above which the cell's part of a ray is
 /// bisected under tighter bounds ([`VdbMedium::density_bounds`]). Real media stay below it (so
@@ -108,14 +101,11 @@ pub struct VdbMedium {
     majorant: Blocked<f32>,
     cells: IVec3,
     lo: Vec3,
-    /// Trackings cut at [`MAX_TRACKING_STEPS`].
+    /// Trackings cut at the tracker's step cap.
     truncated: Counter,
     /// [`SPLIT_STEPS`] (tests lower it to bisect every cell).
     split_steps: f32,
 }
-
-/// A transmittance step function along one segment: `(t_k, T after t_k)`.
-pub type TransmittanceSteps = smallvec::SmallVec<[(f32, Rgb); 32]>;
 
 impl VdbMedium {
     /// Builds the medium from a loaded grid. `to_scene` places the grid's world space in the
@@ -382,17 +372,10 @@ impl VdbMedium {
         }
     }
 
-    /// Trackings so far cut at [`MAX_TRACKING_STEPS`] (zero in any sensible medium).
+    /// Trackings so far cut at the tracker's step cap (zero in any sensible medium).
     pub fn truncated_trackings(&self) -> u64 {
         self.truncated.0.load(Ordering::Relaxed)
     }
-}
-
-/// T(0, t) from a step function.
-#[inline]
-pub fn steps_at(steps: &[(f32, Rgb)], t: f32) -> Rgb {
-    let n = steps.partition_point(|&(tk, _)| tk < t);
-    if n == 0 { Rgb::ONE } else { steps[n - 1].1 }
 }
 
 #[cfg(test)]
@@ -559,7 +542,8 @@ mod tests {
         let mut s = Sampler::new(42, crate::rng::Purpose::Other, 0, 0);
         let ended = (0..1000)
             .filter(|_| {
-                let steps = v.transmittance_steps(o, Vec3::X, len, 4.0, &mut s);
+                let steps =
+                    crate::medium::tracker::transmittance_steps(&**v, o, Vec3::X, len, 4.0, &mut s);
                 steps.last().is_some_and(|&(_, t)| t.x == 0.0)
             })
             .count();
