@@ -12,9 +12,12 @@ pub struct FreeFlight {
     pub scattered: bool,
     /// Throughput factor: T(t)/p(t) at a collision, T(t_max)/P(no collision) otherwise.
     pub weight: Rgb,
-    /// The densities of the decision taken and of its reverse, where the medium can give them
-    /// exactly (homogeneous media); `None` for grids, whose null-scattering path densities
-    /// (Miller, Georgiev & Jarosz 2019) need majorants that do not depend on where a walk ends.
+    /// The densities of the decision taken and of its reverse, for a homogeneous medium; `None`
+    /// for grids, whose densities are those of the null-scattering path (Miller, Georgiev &
+    /// Jarosz 2019): a method that needs them records the null collisions
+    /// (`tracker::free_flight_with`) and evaluates `tracker::ln_flight_pdf` forward and on the
+    /// reversed ray, which costs a walk over the majorants that a render without such weights
+    /// should not pay.
     #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
     pub pdfs: Option<DistancePdfs>,
 }

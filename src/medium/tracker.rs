@@ -174,7 +174,9 @@ impl Constant {
             let tr = self.transmittance(t_max);
             let p_pass = tr.element_sum() / 3.0;
             let weight = if p_pass > 0.0 { tr / p_pass } else { Rgb::ZERO };
-            let pdfs = DistancePdfs { forward: p_pass, reverse: self.collision_pdf(t_max) };
+            // The reverse collision's density, `collision_pdf(t_max)` from the T in hand.
+            let reverse = (sigma_t * tr).element_sum() / 3.0;
+            let pdfs = DistancePdfs { forward: p_pass, reverse };
             FreeFlight { t: t_max, scattered: false, weight, pdfs: Some(pdfs) }
         }
     }
@@ -182,6 +184,7 @@ impl Constant {
     /// The density per unit length with which [`Self::free_flight`] collides at distance `t`
     /// (the reverse density of a flight of length `t`: a constant medium is the same both ways):
     /// (1/3) Σ_c σ_t,c e^{−σ_t,c t}.
+    #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
     pub fn collision_pdf(&self, t: f32) -> f32 {
         (self.sigma_t * self.transmittance(t)).element_sum() / 3.0
     }
@@ -250,7 +253,7 @@ pub(crate) fn tentative<M: Tracked>(
 
 /// A collision along o + t d before `t_max` (may be infinite): closed form for a constant
 /// medium; delta tracking (pdf σ_t(t) T(0, t), weight 1/σ_t(t); or none, weight 1) otherwise,
-/// spectral delta tracking where the extinction is coloured ([`spectral_free_flight`]).
+/// spectral delta tracking where the extinction is coloured ([`spectral_free_flight_with`]).
 pub(crate) fn free_flight<M: Tracked>(
     m: &M,
     o: Vec3,
@@ -258,22 +261,37 @@ pub(crate) fn free_flight<M: Tracked>(
     t_max: f32,
     s: &mut Sampler,
 ) -> FreeFlight {
-    if let Some(c) = m.constant() {
-        return c.free_flight(t_max, s.next_f32(), s.next_f32());
-    }
-    if m.coloured() {
-        return spectral_free_flight(m, o, d, t_max, s);
-    }
-    delta_tracking(m, o, d, t_max, s)
+    free_flight_with(m, o, d, t_max, s, |_| {})
 }
 
-/// Delta tracking against the majorants (Woodcock et al. 1965).
-pub(crate) fn delta_tracking<M: Tracked>(
+/// [`free_flight`], calling `null(t)` at each null collision: with the flight's end, what
+/// [`ln_flight_pdf`] takes.
+pub(crate) fn free_flight_with<M: Tracked>(
     m: &M,
     o: Vec3,
     d: Vec3,
     t_max: f32,
     s: &mut Sampler,
+    null: impl FnMut(f32),
+) -> FreeFlight {
+    if let Some(c) = m.constant() {
+        return c.free_flight(t_max, s.next_f32(), s.next_f32());
+    }
+    if m.coloured() {
+        return spectral_free_flight_with(m, o, d, t_max, s, null);
+    }
+    delta_tracking_with(m, o, d, t_max, s, null)
+}
+
+/// Delta tracking against the majorants (Woodcock et al. 1965), calling `null(t)` at each null
+/// collision (for [`ln_flight_pdf`]).
+pub(crate) fn delta_tracking_with<M: Tracked>(
+    m: &M,
+    o: Vec3,
+    d: Vec3,
+    t_max: f32,
+    s: &mut Sampler,
+    mut null: impl FnMut(f32),
 ) -> FreeFlight {
     let mut hit: Option<(f32, f32)> = None;
     let mut last = 0.0;
@@ -283,6 +301,7 @@ pub(crate) fn delta_tracking<M: Tracked>(
             hit = Some((t, sigma_t));
             return false;
         }
+        null(t);
         true
     });
     if !complete {
@@ -306,12 +325,14 @@ pub(crate) fn delta_tracking<M: Tracked>(
 /// at a real collision, A_c / mean_h A_h if the ray passes. Unbiased in every channel, and
 /// bounded: times σ_t,c it is at most 3 at a collision, and at most 3 when passing — no
 /// channel's throughput blows up.
-pub(crate) fn spectral_free_flight<M: Tracked>(
+/// `null(t)` is called at each null collision.
+pub(crate) fn spectral_free_flight_with<M: Tracked>(
     m: &M,
     o: Vec3,
     d: Vec3,
     t_max: f32,
     s: &mut Sampler,
+    mut null: impl FnMut(f32),
 ) -> FreeFlight {
     let h = ((s.next_f32() * 3.0) as usize).min(2);
     let mut a = Rgb::ONE;
@@ -326,6 +347,7 @@ pub(crate) fn spectral_free_flight<M: Tracked>(
             hit = Some((t, a / (mu * (a * q).element_sum() / 3.0)));
             return false;
         }
+        null(t);
         a *= Rgb::ONE - q;
         // Only ratios of the A_c count: rescale before they underflow (a long walk through
         // dense smoke multiplies hundreds of factors), which would make 0/0.
@@ -346,6 +368,82 @@ pub(crate) fn spectral_free_flight<M: Tracked>(
             FreeFlight { t: t_max, scattered: false, weight, pdfs: None }
         }
     }
+}
+
+/// The density of a free flight along o + t d, 0 ≤ t < `t_max`, as its natural logarithm: in the
+/// null-scattering path integral (Miller, Georgiev & Jarosz 2019) the flight is its tentative
+/// collisions, null at the distances `nulls` (in order) and real at `end` (`None`: it passed
+/// `t_max`), and its density is the product of majorant-based probabilities, exactly computable:
+///
+///   p = (1/C) Σ_c e^{−∫₀^{t_e} μ̄} · Π_j (μ̄(t_j) − σ_t,c(t_j)) · [σ_t,c(t_e) at a collision]
+///
+/// with t_e the end (or `t_max`), μ̄ the medium's majorants for this ray and segment (rate 1),
+/// and the average over the C = 3 channels where the extinction is coloured (the hero channel
+/// of spectral tracking, chosen uniformly), C = 1 where it is grey. A constant medium has no null
+/// collisions and gives its closed form ([`Constant::free_flight`]'s densities). This is the
+/// density of the decision [`free_flight`] takes along that ray; the reverse decision, a flight
+/// from the end back towards the start, is this function on the reversed ray (its `t_max` the
+/// distance to the surface behind the start: the majorants of a grid depend on the segment).
+/// −∞ for a flight that cannot happen (a null where the majorant is zero, a real collision where
+/// σ_t is).
+#[allow(dead_code)] // for the combined estimator's weights; read by the tests now
+pub(crate) fn ln_flight_pdf<M: Tracked>(
+    m: &M,
+    o: Vec3,
+    d: Vec3,
+    t_max: f32,
+    nulls: &[f32],
+    end: Option<f32>,
+) -> f64 {
+    if let Some(c) = m.constant() {
+        if !nulls.is_empty() {
+            return f64::NEG_INFINITY;
+        }
+        let pdf = match end {
+            Some(t) => c.collision_pdf(t),
+            None => c.transmittance(t_max).element_sum() / 3.0,
+        };
+        return (pdf as f64).ln();
+    }
+    let t_end = end.unwrap_or(t_max);
+    // Per channel: Σ ln(μ̄ − σ_t,c) over the nulls; and ∫ μ̄ up to the end.
+    let mut ln = [0.0f64; 3];
+    let mut integral = 0.0f64;
+    let mut k = 0;
+    m.majorants(o, d, t_max, 1.0, |mu, a, b| {
+        let hi = b.min(t_end);
+        if hi > a {
+            integral += mu as f64 * (hi - a) as f64;
+        }
+        while k < nulls.len() && nulls[k] < b {
+            let t = nulls[k];
+            let p = o + d * t;
+            let sigma = m.tint(p) * m.sigma_t(p);
+            for (c, l) in ln.iter_mut().enumerate() {
+                let factor = if t >= a { (mu - sigma[c]).max(0.0) } else { 0.0 };
+                *l += (factor as f64).ln();
+            }
+            k += 1;
+        }
+        b < t_end
+    });
+    if k < nulls.len() {
+        return f64::NEG_INFINITY;
+    }
+    if let Some(t) = end {
+        let p = o + d * t;
+        let sigma = m.tint(p) * m.sigma_t(p);
+        for (c, l) in ln.iter_mut().enumerate() {
+            *l += (sigma[c] as f64).ln();
+        }
+    }
+    let channels = if m.coloured() { 3 } else { 1 };
+    let top = ln[..channels].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if top == f64::NEG_INFINITY {
+        return top;
+    }
+    let mean = ln[..channels].iter().map(|l| (l - top).exp()).sum::<f64>() / channels as f64;
+    top + mean.ln() - integral
 }
 
 /// The transmittance along o + t d over [0, t_max): exact for a constant medium, otherwise a
@@ -513,7 +611,7 @@ mod tests {
         test.bins = [32, 1];
         test.run(
             |s| {
-                let f = delta_tracking(&grey, o, d, len, s);
+                let f = delta_tracking_with(&grey, o, d, len, s, |_| {});
                 let want = if f.scattered { 1.0 / sigma as f32 } else { 1.0 };
                 assert!((f.weight.x - want).abs() < 1e-6, "{f:?}");
                 f.scattered.then(|| Sample::Point(DVec2::new(f.t as f64 / len as f64, 0.5)))
@@ -555,7 +653,7 @@ mod tests {
             }
             let sigma_t = c.sigma_t[k];
             let passes = mean(30, &|s| {
-                let f = spectral_free_flight(&coloured, o, d, len, s);
+                let f = spectral_free_flight_with(&coloured, o, d, len, s, |_| {});
                 if f.scattered { Rgb::ZERO } else { f.weight }
             });
             assert_agrees(
@@ -565,7 +663,7 @@ mod tests {
                 0.0,
             );
             let hits = mean(31, &|s| {
-                let f = spectral_free_flight(&coloured, o, d, len, s);
+                let f = spectral_free_flight_with(&coloured, o, d, len, s, |_| {});
                 if f.scattered { f.weight * sigma_t } else { Rgb::ZERO }
             });
             let collided = 1.0 - tr[k] as f64;

@@ -33,7 +33,7 @@
 //!
 //! A coloured extinction is tracked per channel against the largest channel's majorant: ratio
 //! tracking per channel, and spectral delta tracking with the balance heuristic over a hero
-//! channel (`tracker::spectral_free_flight`; docs/theory.md). The grid describes itself to the
+//! channel (`tracker::spectral_free_flight_with`; docs/theory.md). The grid describes itself to the
 //! one tracker (`medium/tracker.rs`), which does all of this for any medium: its majorants in
 //! `tracking.rs`.
 
@@ -822,6 +822,85 @@ mod tests {
         assert!(m.emits());
         let source = |x: f64, c: usize| sigma_a[c] as f64 * 2.0 * density(x) * 3.0 * density(x);
         assert_emission_along_the_gradient(&m, "colour-grid emission", 90, source);
+    }
+
+    /// The null-scattering densities of delta tracking (`tracker::ln_flight_pdf`) against the
+    /// histograms of the flights, through the gradient along +x (the forward decision) and along
+    /// −x from the far end (the reverse one): flights that collide with no null collision have
+    /// density e^{−∫₀^t μ̄} σ_t(t) over t, flights with exactly one null at t₁ before colliding at
+    /// t₂ have e^{−∫₀^{t₂} μ̄} (μ̄(t₁) − σ_t(t₁)) σ_t(t₂) over (t₁, t₂), with μ̄ the majorant
+    /// pieces of the ray and σ_t(x) = k (x + 1/64) (chi-square; every other flight in the
+    /// failure bin); and at every such flight `ln_flight_pdf` is the log of that density.
+    #[test]
+    fn null_scattering_densities_match_their_histograms() {
+        use crate::medium::tracker::{Tracked, delta_tracking_with, ln_flight_pdf};
+        let (sigma, scale) = (1.5f32, 2.0f32);
+        let m = grid_medium("gradient.vdb", scale, Vec3::ZERO, Vec3::splat(sigma));
+        let Medium::Vdb(v) = &m else { unreachable!() };
+        let v: &VdbMedium = v;
+        let k = (sigma * scale) as f64;
+        let (lo, hi) = (0.05f64, 0.9f64);
+        let len = hi - lo;
+        for (j, (start, sign)) in [(lo, 1.0f64), (hi, -1.0)].into_iter().enumerate() {
+            let o = Vec3::new(start as f32, 0.25, 0.25);
+            let d = Vec3::X * sign as f32;
+            let sigma_t = |t: f64| k * (start + sign * t + 1.0 / 64.0);
+            let mut pieces = Vec::new();
+            v.majorants(o, d, len as f32, 1.0, |mu, a, b| {
+                pieces.push((mu as f64, a as f64, b as f64));
+                true
+            });
+            assert!(pieces.len() > 2, "{pieces:?}");
+            let mu_at = |t: f64| pieces.iter().find(|p| t >= p.1 && t < p.2).map_or(0.0, |p| p.0);
+            let integral =
+                |t: f64| pieces.iter().map(|&(mu, a, b)| mu * (b.min(t) - a).max(0.0)).sum::<f64>();
+            let p0 = |t: f64| (-integral(t)).exp() * sigma_t(t);
+            let p1 = |t1: f64, t2: f64| {
+                if t1 < t2 {
+                    (-integral(t2)).exp() * (mu_at(t1) - sigma_t(t1)) * sigma_t(t2)
+                } else {
+                    0.0
+                }
+            };
+            for nulls_wanted in [0usize, 1] {
+                let mut test = ChiSquare::new(
+                    format!("null-scattering density, {nulls_wanted} null, direction {sign}"),
+                    Domain::Square,
+                    4,
+                );
+                test.seed = 10 + 2 * j as u64 + nulls_wanted as u64;
+                test.bins = if nulls_wanted == 0 { [24, 1] } else { [8, 8] };
+                test.run(
+                    |s| {
+                        let mut nulls = Vec::new();
+                        let f = delta_tracking_with(v, o, d, len as f32, s, |t| nulls.push(t));
+                        if !f.scattered || nulls.len() != nulls_wanted {
+                            return None;
+                        }
+                        let t = f.t as f64;
+                        let want = match nulls.first() {
+                            None => p0(t),
+                            Some(&t1) => p1(t1 as f64, t),
+                        };
+                        let got = ln_flight_pdf(v, o, d, len as f32, &nulls, Some(f.t));
+                        assert!((got - want.ln()).abs() < 1e-3, "{got} vs {} at {t}", want.ln());
+                        let point = match nulls.first() {
+                            None => DVec2::new(t / len, 0.5),
+                            Some(&t1) => DVec2::new(t1 as f64 / len, t / len),
+                        };
+                        Some(Sample::Point(point))
+                    },
+                    |p| {
+                        let q = p.point();
+                        if nulls_wanted == 0 {
+                            len * p0(q.x * len)
+                        } else {
+                            len * len * p1(q.x * len, q.y * len)
+                        }
+                    },
+                );
+            }
+        }
     }
 
     /// Delta tracking's free-flight distances follow the exact distribution for the gradient
