@@ -1,13 +1,16 @@
 //! A render's settings resolved once against its scene. [`Plan::new`] is the one place where a
 //! render's settings are checked, alone and against the scene (the keys and their combinations,
 //! the initial radii against the scene's size, the target region against the image, the method
-//! against the scene's media), and where everything derived from them is worked out: the light
-//! paths per iteration, both radius schedules, the hybrid's choices, the photon maps' layout.
-//! The methods ([`crate::integrator`]) read the plan and nothing else of the settings.
+//! against the scene's media; where a render starts — a range, a resume — is checked against
+//! them in `render.rs`), and where everything derived from them is worked out: the light paths
+//! per iteration, both radius schedules, the hybrid's choices, the volume estimate and the beam
+//! map's thinning budget. The methods ([`crate::integrator`]) read the plan and nothing else of
+//! the settings.
 //!
 //! The radii of an iteration come from [`Plan::radii`] alone; the photon maps are built with
-//! them and keep them, and every gather reads its radius from the map it queries, so a map and
-//! its gathers cannot disagree.
+//! them and keep them, and the surface, point and beam estimates read their radius from the map
+//! they query, so a map and its gathers cannot disagree (the original PPM's per-pixel radii,
+//! each at most the radius its map was built for, are its own).
 
 use crate::error::{Error, Result};
 use crate::estimate::kernel::Kernel;

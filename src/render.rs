@@ -91,12 +91,13 @@ pub fn render_partial(
     stop: &AtomicBool,
 ) -> Result<Partial> {
     let plan = Plan::new(scene, settings)?;
-    check_memory(scene, &plan)?;
     let fingerprint = scene.fingerprint();
     let mut method = Method::new(scene, &plan);
     let [width, height] = scene.camera.resolution;
     let (first, mut film, before) =
         starting_film(start, &mut method, scene, settings, &fingerprint)?;
+    // Last, as it traces a few light paths.
+    check_memory(scene, &plan)?;
     let start = Instant::now();
     let mut frame = crate::integrator::frame::Frame::new((width * height) as usize);
     let nonfinite = AtomicU64::new(0);
@@ -244,7 +245,8 @@ pub const PILOT_PATHS: u64 = 1000;
 
 /// Bytes one iteration of a render of `scene` with `settings` is expected to need: the photons
 /// its light paths store (measured by tracing [`PILOT_PATHS`] of them; twice, for the photon maps
-/// built from them) and the image buffers. An estimate: paths vary.
+/// built from them) and the image buffers. An estimate: paths vary. Refuses the settings a
+/// render refuses ([`Error::Settings`]).
 pub fn memory_estimate(scene: &Scene, settings: &RenderSettings) -> Result<u64> {
     Ok(memory_need(scene, &Plan::new(scene, settings)?))
 }

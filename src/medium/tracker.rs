@@ -103,8 +103,10 @@ pub(crate) trait Tracked {
     fn constant(&self) -> Option<Constant>;
 
     /// Calls `f(μ̄, a, b)` in order along o + t d for pieces [a, b) of [0, `t_max`), μ̄ a bound
-    /// on [`Self::sigma_t`] over the piece, sized for tentative collisions at `rate` times μ̄
-    /// (pieces where μ̄ is zero may be left out); stops when `f` returns `false`.
+    /// over the piece on every channel's extinction, max_c [`Self::tint`]_c · [`Self::sigma_t`]
+    /// (so on `sigma_t` itself wherever the medium is not [`Self::coloured`]), sized for
+    /// tentative collisions at `rate` times μ̄ (pieces where μ̄ is zero may be left out); stops
+    /// when `f` returns `false`.
     fn majorants(
         &self,
         o: Vec3,
@@ -382,8 +384,11 @@ pub(crate) fn spectral_free_flight_with<M: Tracked>(
 /// of spectral tracking, chosen uniformly), C = 1 where it is grey. A constant medium has no null
 /// collisions and gives its closed form ([`Constant::free_flight`]'s densities). This is the
 /// density of the decision [`free_flight`] takes along that ray; the reverse decision, a flight
-/// from the end back towards the start, is this function on the reversed ray (its `t_max` the
-/// distance to the surface behind the start: the majorants of a grid depend on the segment).
+/// from the end back towards the start, is this function on the reversed ray: origin at the end,
+/// its nulls at t_e − t_j in reverse order, its `t_max` the distance to the surface behind the
+/// start (the majorants of a grid depend on the segment), a collision at t_e if the start was a
+/// medium vertex. Invalid input — nulls out of order or not before the end, an end not before
+/// `t_max` or where no majorant covers it — has density 0.
 /// −∞ for a flight that cannot happen (a null where the majorant is zero, a real collision where
 /// σ_t is).
 #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
@@ -406,15 +411,23 @@ pub(crate) fn ln_flight_pdf<M: Tracked>(
         return (pdf as f64).ln();
     }
     let t_end = end.unwrap_or(t_max);
-    // Per channel: Σ ln(μ̄ − σ_t,c) over the nulls; and ∫ μ̄ up to the end.
+    let ordered = nulls.windows(2).all(|w| w[0] < w[1]);
+    let before_end = nulls.last().is_none_or(|&t| t < t_end);
+    if !ordered || !before_end || end.is_some_and(|t| t >= t_max || t.is_nan()) {
+        return f64::NEG_INFINITY;
+    }
+    // Per channel: Σ ln(μ̄ − σ_t,c) over the nulls; ∫ μ̄ up to the end; whether a piece of
+    // non-zero majorant holds the end of a collision.
     let mut ln = [0.0f64; 3];
     let mut integral = 0.0f64;
     let mut k = 0;
+    let mut covered = end.is_none();
     m.majorants(o, d, t_max, 1.0, |mu, a, b| {
         let hi = b.min(t_end);
         if hi > a {
             integral += mu as f64 * (hi - a) as f64;
         }
+        covered |= a < t_end && t_end < b;
         while k < nulls.len() && nulls[k] < b {
             let t = nulls[k];
             let p = o + d * t;
@@ -427,7 +440,7 @@ pub(crate) fn ln_flight_pdf<M: Tracked>(
         }
         b < t_end
     });
-    if k < nulls.len() {
+    if k < nulls.len() || !covered {
         return f64::NEG_INFINITY;
     }
     if let Some(t) = end {

@@ -86,7 +86,8 @@ pub(crate) trait Traveller {
     fn reached(&mut self, _scene: &Scene, _hit: &Hit) {}
 
     /// The path reached `hit`, on a surface of `material` that is not pass-through: it
-    /// scatters ([`Travel::leave`]) or ends.
+    /// scatters ([`Travel::leave`]; a reflection may also set the ray's origin and direction
+    /// itself, the medium being unchanged) or ends.
     fn at_surface(&mut self, scene: &Scene, hit: &Hit, material: &Material) -> Vertex;
 }
 

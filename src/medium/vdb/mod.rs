@@ -504,7 +504,7 @@ mod tests {
 
     /// Russian roulette in ratio tracking keeps it unbiased where it plays: through the gradient
     /// slab at density scale 12 (optical depth 4.7, T ≈ 0.009, so almost every walk drops below
-    /// [`TRACKING_ROULETTE`]) transmittance at rates 1 and 4 and the beam's step function at
+    /// the tracker's roulette threshold) transmittance at rates 1 and 4 and the beam's step function at
     /// both ends agree with exp(−τ) by t-tests; and most walks at rate 4 end at zero before the
     /// segment's end, which without roulette none would.
     #[test]
@@ -824,81 +824,101 @@ mod tests {
         assert_emission_along_the_gradient(&m, "colour-grid emission", 90, source);
     }
 
-    /// The null-scattering densities of delta tracking (`tracker::ln_flight_pdf`) against the
-    /// histograms of the flights, through the gradient along +x (the forward decision) and along
-    /// −x from the far end (the reverse one): flights that collide with no null collision have
-    /// density e^{−∫₀^t μ̄} σ_t(t) over t, flights with exactly one null at t₁ before colliding at
-    /// t₂ have e^{−∫₀^{t₂} μ̄} (μ̄(t₁) − σ_t(t₁)) σ_t(t₂) over (t₁, t₂), with μ̄ the majorant
-    /// pieces of the ray and σ_t(x) = k (x + 1/64) (chi-square; every other flight in the
-    /// failure bin); and at every such flight `ln_flight_pdf` is the log of that density.
+    /// The null-scattering densities of free flights (`tracker::ln_flight_pdf`) against their
+    /// histograms, through the gradient along +x (the forward decision) and along −x from the
+    /// far end (the reverse one), for a grey extinction (delta tracking) and a coloured one
+    /// (spectral tracking, hero-averaged). With μ̄ the majorant pieces of the ray and
+    /// σ_c(x) = k t_c (x + 1/64): flights with no null collision collide at t with density
+    /// (1/C) Σ_c e^{−∫₀^t μ̄} σ_c(t) or pass with probability e^{−∫₀^L μ̄}; flights with one null at
+    /// t₁ collide at t₂ with density (1/C) Σ_c e^{−∫₀^{t₂} μ̄} (μ̄(t₁) − σ_c(t₁)) σ_c(t₂)
+    /// (chi-square; every other flight in the failure bin). At every such flight `ln_flight_pdf`
+    /// is the log of that density to 10⁻⁴: each of its few factors and the majorant integral
+    /// carry f32 rounding of about 10⁻⁷ relative, far below.
     #[test]
     fn null_scattering_densities_match_their_histograms() {
-        use crate::medium::tracker::{Tracked, delta_tracking_with, ln_flight_pdf};
-        let (sigma, scale) = (1.5f32, 2.0f32);
-        let m = grid_medium("gradient.vdb", scale, Vec3::ZERO, Vec3::splat(sigma));
-        let Medium::Vdb(v) = &m else { unreachable!() };
-        let v: &VdbMedium = v;
-        let k = (sigma * scale) as f64;
+        use crate::medium::tracker::{Tracked, free_flight_with, ln_flight_pdf};
         let (lo, hi) = (0.05f64, 0.9f64);
         let len = hi - lo;
-        for (j, (start, sign)) in [(lo, 1.0f64), (hi, -1.0)].into_iter().enumerate() {
-            let o = Vec3::new(start as f32, 0.25, 0.25);
-            let d = Vec3::X * sign as f32;
-            let sigma_t = |t: f64| k * (start + sign * t + 1.0 / 64.0);
-            let mut pieces = Vec::new();
-            v.majorants(o, d, len as f32, 1.0, |mu, a, b| {
-                pieces.push((mu as f64, a as f64, b as f64));
-                true
-            });
-            assert!(pieces.len() > 2, "{pieces:?}");
-            let mu_at = |t: f64| pieces.iter().find(|p| t >= p.1 && t < p.2).map_or(0.0, |p| p.0);
-            let integral =
-                |t: f64| pieces.iter().map(|&(mu, a, b)| mu * (b.min(t) - a).max(0.0)).sum::<f64>();
-            let p0 = |t: f64| (-integral(t)).exp() * sigma_t(t);
-            let p1 = |t1: f64, t2: f64| {
-                if t1 < t2 {
-                    (-integral(t2)).exp() * (mu_at(t1) - sigma_t(t1)) * sigma_t(t2)
-                } else {
-                    0.0
+        let media = [("grey", Vec3::splat(1.5)), ("coloured", Vec3::new(1.5, 0.9, 0.6))];
+        for (m_index, (name, sigma)) in media.into_iter().enumerate() {
+            let scale = 2.0f32;
+            let m = grid_medium("gradient.vdb", scale, Vec3::ZERO, sigma);
+            let Medium::Vdb(v) = &m else { unreachable!() };
+            let v: &VdbMedium = v;
+            assert_eq!(v.coloured(), m_index == 1);
+            let k = (sigma.max_element() * scale) as f64;
+            let tint = (sigma / sigma.max_element()).as_dvec3();
+            let channels = if m_index == 1 { 3 } else { 1 };
+            for (j, (start, sign)) in [(lo, 1.0f64), (hi, -1.0)].into_iter().enumerate() {
+                let o = Vec3::new(start as f32, 0.25, 0.25);
+                let d = Vec3::X * sign as f32;
+                let sigma_c = |c: usize, t: f64| tint[c] * k * (start + sign * t + 1.0 / 64.0);
+                let mut pieces = Vec::new();
+                v.majorants(o, d, len as f32, 1.0, |mu, a, b| {
+                    pieces.push((mu as f64, a as f64, b as f64));
+                    true
+                });
+                assert!(pieces.len() > 2, "{pieces:?}");
+                let mu_at =
+                    |t: f64| pieces.iter().find(|p| t >= p.1 && t < p.2).map_or(0.0, |p| p.0);
+                let integral = |t: f64| {
+                    pieces.iter().map(|&(mu, a, b)| mu * (b.min(t) - a).max(0.0)).sum::<f64>()
+                };
+                let mean =
+                    |f: &dyn Fn(usize) -> f64| (0..channels).map(f).sum::<f64>() / channels as f64;
+                let p0 = |t: f64| (-integral(t)).exp() * mean(&|c| sigma_c(c, t));
+                let pass = (-integral(len)).exp();
+                let p1 = |t1: f64, t2: f64| {
+                    let null_real = mean(&|c| (mu_at(t1) - sigma_c(c, t1)) * sigma_c(c, t2));
+                    if t1 < t2 { (-integral(t2)).exp() * null_real } else { 0.0 }
+                };
+                for nulls_wanted in [0usize, 1] {
+                    let what = format!("{name}, {nulls_wanted} null, direction {sign}");
+                    let mut test = ChiSquare::new(
+                        format!("null-scattering density, {what}"),
+                        Domain::Square,
+                        8,
+                    );
+                    test.seed = 10 + 4 * m_index as u64 + 2 * j as u64 + nulls_wanted as u64;
+                    // No null: collisions in the lower half, passes in the top right bin.
+                    test.bins = if nulls_wanted == 0 { [24, 2] } else { [8, 8] };
+                    test.run(
+                        |s| {
+                            let mut nulls = Vec::new();
+                            let f = free_flight_with(v, o, d, len as f32, s, |t| nulls.push(t));
+                            if nulls.len() != nulls_wanted || (!f.scattered && nulls_wanted == 1) {
+                                return None;
+                            }
+                            let end = f.scattered.then_some(f.t);
+                            let t = f.t as f64;
+                            let want = match (nulls.first(), end) {
+                                (None, Some(_)) => p0(t),
+                                (None, None) => pass,
+                                (Some(&t1), _) => p1(t1 as f64, t),
+                            };
+                            let got = ln_flight_pdf(v, o, d, len as f32, &nulls, end);
+                            assert!(
+                                (got - want.ln()).abs() < 1e-4,
+                                "{what}: {got} vs {}",
+                                want.ln()
+                            );
+                            Some(Sample::Point(match (nulls.first(), end) {
+                                (None, Some(_)) => DVec2::new(t / len, 0.25),
+                                (None, None) => DVec2::new(0.99, 0.75),
+                                (Some(&t1), _) => DVec2::new(t1 as f64 / len, t / len),
+                            }))
+                        },
+                        |p| {
+                            let q = p.point();
+                            match nulls_wanted {
+                                0 if q.y < 0.5 => 2.0 * len * p0(q.x * len),
+                                0 if q.x >= 23.0 / 24.0 => 48.0 * pass,
+                                0 => 0.0,
+                                _ => len * len * p1(q.x * len, q.y * len),
+                            }
+                        },
+                    );
                 }
-            };
-            for nulls_wanted in [0usize, 1] {
-                let mut test = ChiSquare::new(
-                    format!("null-scattering density, {nulls_wanted} null, direction {sign}"),
-                    Domain::Square,
-                    4,
-                );
-                test.seed = 10 + 2 * j as u64 + nulls_wanted as u64;
-                test.bins = if nulls_wanted == 0 { [24, 1] } else { [8, 8] };
-                test.run(
-                    |s| {
-                        let mut nulls = Vec::new();
-                        let f = delta_tracking_with(v, o, d, len as f32, s, |t| nulls.push(t));
-                        if !f.scattered || nulls.len() != nulls_wanted {
-                            return None;
-                        }
-                        let t = f.t as f64;
-                        let want = match nulls.first() {
-                            None => p0(t),
-                            Some(&t1) => p1(t1 as f64, t),
-                        };
-                        let got = ln_flight_pdf(v, o, d, len as f32, &nulls, Some(f.t));
-                        assert!((got - want.ln()).abs() < 1e-3, "{got} vs {} at {t}", want.ln());
-                        let point = match nulls.first() {
-                            None => DVec2::new(t / len, 0.5),
-                            Some(&t1) => DVec2::new(t1 as f64 / len, t / len),
-                        };
-                        Some(Sample::Point(point))
-                    },
-                    |p| {
-                        let q = p.point();
-                        if nulls_wanted == 0 {
-                            len * p0(q.x * len)
-                        } else {
-                            len * len * p1(q.x * len, q.y * len)
-                        }
-                    },
-                );
             }
         }
     }

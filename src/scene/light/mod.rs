@@ -233,7 +233,13 @@ impl Light {
                 (p, Frame::new(n).to_world(sample_cosine_hemisphere(u_dir)), n, self.power())
             }
         };
-        Emission { p, d, n, beta, pdfs: self.pdf_emission(n, d) }
+        let mut pdfs = self.pdf_emission(n, d);
+        if let Light::Spot { cos_max, .. } = self {
+            // Drawn inside the cone: its density even where rounding puts a direction drawn at
+            // the rim a hair outside.
+            pdfs.dir = 1.0 / (2.0 * PI * (1.0 - cos_max));
+        }
+        Emission { p, d, n, beta, pdfs }
     }
 
     /// The densities with which [`Self::sample_emission`] emits in direction `d` from a point of
@@ -436,7 +442,7 @@ mod tests {
                 let e = point.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert_eq!(e.p, Vec3::ONE);
                 assert!((e.beta - point.power()).abs().max_element() < 1e-4);
-                assert_eq!(e.pdfs, point.pdf_emission(e.n, e.d));
+                assert_eq!(e.pdfs, EmissionPdfs { pos: 1.0, dir: 1.0 / (4.0 * PI) });
                 Some(Sample::Direction(e.d))
             },
             |d| point.pdf_emission(Vec3::ZERO, d.direction()).dir as f64,
@@ -447,7 +453,8 @@ mod tests {
             |s| {
                 let e = rect.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert!((e.n - Vec3::Z).length() < 1e-6 && e.beta == rect.power());
-                assert_eq!(e.pdfs, rect.pdf_emission(e.n, e.d));
+                assert_eq!(e.pdfs.pos, 0.5, "uniform over an area of 2");
+                assert!((e.pdfs.dir - e.d.z / PI).abs() < 1e-6, "cosine-weighted");
                 let uv = DVec2::new((e.p.x as f64 + 1.0) / 2.0, e.p.y as f64 + 0.5);
                 Some(Sample::Point(uv))
             },
@@ -467,7 +474,8 @@ mod tests {
             |s| {
                 let e = sphere.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert!(e.n.dot(e.d) >= 0.0, "emitted inwards");
-                assert_eq!(e.pdfs, sphere.pdf_emission(e.n, e.d));
+                assert!((e.pdfs.pos - 1.0 / PI).abs() < 1e-6, "uniform over an area of π");
+                assert!((e.pdfs.dir - e.n.dot(e.d) / PI).abs() < 1e-6, "cosine-weighted");
                 Some(Sample::Direction((e.p - Vec3::new(0.0, 0.0, 2.0)) / 0.5))
             },
             // Per steradian of the unit sphere: per unit area times r².
@@ -489,7 +497,8 @@ mod tests {
             |s| {
                 let e = spot.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 betas.push(e.beta.x as f64);
-                assert_eq!(e.pdfs, spot.pdf_emission(e.n, e.d));
+                let cone = 1.0 / (2.0 * PI * (1.0 - cos_max));
+                assert_eq!(e.pdfs, EmissionPdfs { pos: 1.0, dir: cone });
                 Some(Sample::Direction(e.d))
             },
             |d| spot.pdf_emission(Vec3::ZERO, d.direction()).dir as f64,
@@ -525,7 +534,7 @@ mod tests {
                 let e = sun.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert_eq!(e.d, direction);
                 assert!((e.p - corner).dot(direction).abs() < 1e-3, "off the rectangle");
-                assert_eq!(e.pdfs, sun.pdf_emission(e.n, e.d));
+                assert_eq!(e.pdfs, EmissionPdfs { pos: 1.0 / area, dir: 1.0 });
                 let (u, v) = local(e.p);
                 Some(Sample::Point(DVec2::new(u as f64, v as f64)))
             },
