@@ -294,12 +294,11 @@ pub struct LightSample {
     /// the irradiance-like contribution of a delta light (intensity / d², or the irradiance).
     pub value: Rgb,
     /// Solid-angle density of `wi` at the point (area lights); `None` for delta lights, which
-    /// no other strategy can sample.
+    /// no other strategy can sample. The reverse decision, the light emitting from the sampled
+    /// point towards the receiver, has the densities `pdf_emission(n, −wi)` ([`Light::pdf_emission`],
+    /// n the point's normal from [`Light::sample_point`]): evaluated where a method asks for it,
+    /// not on every shadow ray.
     pub pdf: Option<f32>,
-    /// The reverse decision: the densities with which the light emits from the sampled point
-    /// towards the receiver, along −`wi` ([`Light::pdf_emission`]).
-    #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
-    pub reverse: EmissionPdfs,
 }
 
 impl Light {
@@ -338,14 +337,13 @@ impl Light {
         }
         let dist = d2.sqrt();
         let wi = v / dist;
-        let reverse = self.pdf_emission(point.n.unwrap_or(-wi), -wi);
         match self {
             Light::Point { intensity, .. } => {
-                Some(LightSample { wi, dist, value: *intensity / d2, pdf: None, reverse })
+                Some(LightSample { wi, dist, value: *intensity / d2, pdf: None })
             }
             Light::Spot { frame, .. } => {
                 let value = self.spot_intensity(frame.n.dot(-wi)) / d2;
-                Some(LightSample { wi, dist, value, pdf: None, reverse })
+                Some(LightSample { wi, dist, value, pdf: None })
             }
             Light::Area { radiance, emitter, .. } => {
                 let n = point.n.unwrap_or(-wi);
@@ -360,7 +358,6 @@ impl Light {
                     dist,
                     value: *radiance * (cos_l * area / d2),
                     pdf: Some(d2 / (cos_l * area)),
-                    reverse,
                 })
             }
             Light::Directional { .. } => self.li_from_infinity(),
@@ -400,7 +397,6 @@ impl Light {
                 dist: f32::INFINITY,
                 value: *irradiance,
                 pdf: None,
-                reverse: self.pdf_emission(Vec3::ZERO, *direction),
             }),
             _ => None,
         }
@@ -588,9 +584,9 @@ mod tests {
                 assert_eq!(rect.le(-Vec3::Z, ls.wi), Rgb::ZERO);
                 assert!((ls.value.x as f64 - 2.0 / pdf as f64).abs() < 1e-3 * ls.value.x as f64);
                 // The reverse decision, the light emitting towards `at` from the point: uniform
-                // by area (1/2), cosine-weighted in direction, as its emission histograms show.
-                assert_eq!(ls.reverse, rect.pdf_emission(-Vec3::Z, -ls.wi));
-                assert!((ls.reverse.dir - cos_l / PI).abs() < 1e-6 && ls.reverse.pos == 0.5);
+                // by area (1/2), cosine-weighted in direction.
+                let reverse = rect.pdf_emission(-Vec3::Z, -ls.wi);
+                assert!((reverse.dir - cos_l / PI).abs() < 1e-6 && reverse.pos == 0.5);
                 Some(Sample::Direction(ls.wi))
             },
             |d| rect_pdf(d.direction()),
@@ -616,10 +612,11 @@ mod tests {
             |s| {
                 let ls = sphere.sample_li(at, s)?;
                 let q = at + ls.wi * (ls.dist / (1.0 - 1e-4));
-                // The normal rebuilt from the shortened distance: equal to a few ulps.
-                let want = sphere.pdf_emission((q - c) / r as f32, -ls.wi);
-                assert_eq!(ls.reverse.pos, want.pos);
-                assert!((ls.reverse.dir - want.dir).abs() < 1e-5, "{:?} {want:?}", ls.reverse);
+                // The reverse decision: uniform over the area π, cosine-weighted.
+                let n = (q - c) / r as f32;
+                let reverse = sphere.pdf_emission(n, -ls.wi);
+                assert!((reverse.pos - 1.0 / PI).abs() < 1e-6);
+                assert!((reverse.dir - n.dot(-ls.wi) / PI).abs() < 1e-6, "{reverse:?}");
                 Some(Sample::Direction(ls.wi))
             },
             |d| sphere_pdf(d.direction()),
@@ -638,7 +635,7 @@ mod tests {
         // Reverse decisions: the light emitting towards p, with the densities its emission
         // histograms show.
         let uniform = 1.0 / (4.0 * PI);
-        assert_eq!(ls.reverse, EmissionPdfs { pos: 1.0, dir: uniform });
+        assert_eq!(point.pdf_emission(Vec3::ZERO, -ls.wi), EmissionPdfs { pos: 1.0, dir: uniform });
         let (cos_max, cos_start) = (0.5f32, 0.9f32);
         let spot = Light::Spot {
             position: Vec3::new(0.5, 2.0, 0.0),
@@ -652,9 +649,8 @@ mod tests {
         let want = 8.0 * smoothstep(cos_max, cos_start, cos) / 4.0;
         assert!((ls.value.x - want).abs() < 1e-5 && ls.pdf.is_none());
         let cone = 1.0 / (2.0 * PI * (1.0 - cos_max));
-        assert_eq!(ls.reverse, EmissionPdfs { pos: 1.0, dir: cone });
-        let behind = spot.sample_li(Vec3::new(0.5, 3.0, 0.0), &mut s).unwrap();
-        assert_eq!(behind.reverse.dir, 0.0, "outside the cone");
+        assert_eq!(spot.pdf_emission(Vec3::ZERO, -ls.wi), EmissionPdfs { pos: 1.0, dir: cone });
+        assert_eq!(spot.pdf_emission(Vec3::ZERO, Vec3::Y).dir, 0.0, "outside the cone");
         let sun = Light::directional(-Vec3::Y, Rgb::splat(3.0), (-Vec3::ONE, Vec3::ONE));
         let ls = sun.sample_li(p, &mut s).unwrap();
         assert_eq!(
@@ -663,7 +659,7 @@ mod tests {
         );
         let Light::Directional { edge_s, edge_t, .. } = sun else { unreachable!() };
         let pos = 1.0 / edge_s.cross(edge_t).length();
-        assert_eq!(ls.reverse, EmissionPdfs { pos, dir: 1.0 });
+        assert_eq!(sun.pdf_emission(Vec3::ZERO, -ls.wi), EmissionPdfs { pos, dir: 1.0 });
     }
 
     #[test]
