@@ -79,6 +79,7 @@ impl Tracked for Homogeneous {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::medium::tracker::ln_flight_pdf;
     use crate::testing::{ChiSquare, Domain, Sample};
     use glam::DVec2;
 
@@ -114,8 +115,8 @@ mod tests {
 
     /// Free-flight distances with chromatic extinction follow the channel-averaged density
     /// p(t) = (1/3) Σ σ_c e^{−σ_c t}, and reaching t_max has the averaged probability (the
-    /// failure bin); the weights are T(t)/p(t) and T(t_max)/P, and the reported pdfs, forward and
-    /// reverse, are those densities.
+    /// failure bin); the weights are T(t)/p(t) and T(t_max)/P, and `ln_flight_pdf` gives those
+    /// densities, forward and reverse (to 10⁻⁴ in the log: f32 rounding of a few factors).
     #[test]
     fn free_flight_follows_the_averaged_density() {
         let h = Homogeneous {
@@ -139,15 +140,18 @@ mod tests {
                 assert!(
                     (f.weight.as_dvec3() - want).abs().max_element() < 1e-4 * want.max_element()
                 );
-                // The pdfs it reports: the density the histogram tests (the probability of
-                // the failure bin when it passes), and for the reverse decision the same
-                // density at the flight's length, a collision at the start seen from the end.
-                let pdfs = f.pdfs.expect("a homogeneous medium gives its pdfs");
-                let forward = if f.scattered { density(t) } else { tr.element_sum() / 3.0 };
-                let close = |a: f32, b: f64| (a as f64 - b).abs() <= 1e-4 * b;
-                assert!(close(pdfs.forward, forward), "{pdfs:?} {forward}");
-                assert!(close(pdfs.reverse, density(t)), "{pdfs:?}");
-                assert_eq!(pdfs.reverse, c.collision_pdf(f.t));
+                // Its densities: forward, the density the histogram tests (the probability of
+                // the failure bin when it passes); reverse, a flight from the end back to the
+                // start colliding there, the same density at the flight's length.
+                let (o, d) = (Vec3::ZERO, Vec3::X);
+                let end = f.scattered.then_some(f.t);
+                let forward = ln_flight_pdf(&h, o, d, t_max as f32, &[], end);
+                let want = if f.scattered { density(t) } else { tr.element_sum() / 3.0 };
+                assert!((forward - want.ln()).abs() < 1e-4, "{forward} vs {}", want.ln());
+                let back = o + d * f.t;
+                let reverse = ln_flight_pdf(&h, back, -d, 2.0 * f.t, &[], Some(f.t));
+                assert!((reverse - density(t).ln()).abs() < 1e-4, "{reverse}");
+                assert_eq!(ln_flight_pdf(&h, o, d, t_max as f32, &[0.1], end), f64::NEG_INFINITY);
                 f.scattered.then(|| Sample::Point(DVec2::new(t / t_max, 0.5)))
             },
             |p| t_max * density(p.point().x * t_max),

@@ -10,7 +10,7 @@
 //! beam estimate looks up), and the emission estimate. Grids (`vdb/`) give their majorants by a
 //! DDA over majorant cells with dense pieces bisected under tighter bounds.
 
-use super::track::{DistancePdfs, FreeFlight};
+use super::track::FreeFlight;
 use crate::math::Rgb;
 use crate::rng::Sampler;
 use glam::Vec3;
@@ -170,23 +170,18 @@ impl Constant {
         if t < t_max {
             let tr = (-sigma_t * t).exp();
             let pdf = (sigma_t * tr).element_sum() / 3.0;
-            let pdfs = DistancePdfs { forward: pdf, reverse: pdf };
-            FreeFlight { t, scattered: true, weight: tr / pdf, pdfs: Some(pdfs) }
+            FreeFlight { t, scattered: true, weight: tr / pdf }
         } else {
             let tr = self.transmittance(t_max);
             let p_pass = tr.element_sum() / 3.0;
             let weight = if p_pass > 0.0 { tr / p_pass } else { Rgb::ZERO };
-            // The reverse collision's density, `collision_pdf(t_max)` from the T in hand.
-            let reverse = (sigma_t * tr).element_sum() / 3.0;
-            let pdfs = DistancePdfs { forward: p_pass, reverse };
-            FreeFlight { t: t_max, scattered: false, weight, pdfs: Some(pdfs) }
+            FreeFlight { t: t_max, scattered: false, weight }
         }
     }
 
     /// The density per unit length with which [`Self::free_flight`] collides at distance `t`
     /// (the reverse density of a flight of length `t`: a constant medium is the same both ways):
     /// (1/3) Σ_c σ_t,c e^{−σ_t,c t}.
-    #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
     pub fn collision_pdf(&self, t: f32) -> f32 {
         (self.sigma_t * self.transmittance(t)).element_sum() / 3.0
     }
@@ -308,13 +303,11 @@ pub(crate) fn delta_tracking_with<M: Tracked>(
     });
     if !complete {
         // Cut: absorbed where the walk stopped.
-        return FreeFlight { t: last.min(t_max), scattered: true, weight: Rgb::ZERO, pdfs: None };
+        return FreeFlight { t: last.min(t_max), scattered: true, weight: Rgb::ZERO };
     }
     match hit {
-        Some((t, sigma_t)) => {
-            FreeFlight { t, scattered: true, weight: Rgb::splat(1.0 / sigma_t), pdfs: None }
-        }
-        None => FreeFlight { t: t_max, scattered: false, weight: Rgb::ONE, pdfs: None },
+        Some((t, sigma_t)) => FreeFlight { t, scattered: true, weight: Rgb::splat(1.0 / sigma_t) },
+        None => FreeFlight { t: t_max, scattered: false, weight: Rgb::ONE },
     }
 }
 
@@ -360,14 +353,14 @@ pub(crate) fn spectral_free_flight_with<M: Tracked>(
         true
     });
     if !complete {
-        return FreeFlight { t: last.min(t_max), scattered: true, weight: Rgb::ZERO, pdfs: None };
+        return FreeFlight { t: last.min(t_max), scattered: true, weight: Rgb::ZERO };
     }
     match hit {
-        Some((t, weight)) => FreeFlight { t, scattered: true, weight, pdfs: None },
+        Some((t, weight)) => FreeFlight { t, scattered: true, weight },
         None => {
             let mean = a.element_sum() / 3.0;
             let weight = if mean > 0.0 { a / mean } else { Rgb::ZERO };
-            FreeFlight { t: t_max, scattered: false, weight, pdfs: None }
+            FreeFlight { t: t_max, scattered: false, weight }
         }
     }
 }
@@ -400,6 +393,12 @@ pub(crate) fn ln_flight_pdf<M: Tracked>(
     nulls: &[f32],
     end: Option<f32>,
 ) -> f64 {
+    let t_end = end.unwrap_or(t_max);
+    let ordered = nulls.windows(2).all(|w| w[0] < w[1]);
+    let before_end = nulls.last().is_none_or(|&t| t < t_end);
+    if !ordered || !before_end || end.is_some_and(|t| t >= t_max || t.is_nan()) {
+        return f64::NEG_INFINITY;
+    }
     if let Some(c) = m.constant() {
         if !nulls.is_empty() {
             return f64::NEG_INFINITY;
@@ -409,12 +408,6 @@ pub(crate) fn ln_flight_pdf<M: Tracked>(
             None => c.transmittance(t_max).element_sum() / 3.0,
         };
         return (pdf as f64).ln();
-    }
-    let t_end = end.unwrap_or(t_max);
-    let ordered = nulls.windows(2).all(|w| w[0] < w[1]);
-    let before_end = nulls.last().is_none_or(|&t| t < t_end);
-    if !ordered || !before_end || end.is_some_and(|t| t >= t_max || t.is_nan()) {
-        return f64::NEG_INFINITY;
     }
     // Per channel: Σ ln(μ̄ − σ_t,c) over the nulls; ∫ μ̄ up to the end; whether a piece of
     // non-zero majorant holds the end of a collision.

@@ -93,6 +93,7 @@ pub(crate) trait Traveller {
 
 /// Takes `path` from where it stands to its next vertex: along its ray through its medium, then
 /// through a pass-through interface or to the surface it scatters at.
+#[inline]
 pub(crate) fn step(scene: &Scene, path: &mut impl Traveller) -> Vertex {
     let Travel { o, d, medium, .. } = *path.travel();
     let hit = scene.intersect(o, d, f32::INFINITY);
