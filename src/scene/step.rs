@@ -36,6 +36,7 @@ impl Travel {
 
     /// Crosses the pass-through interface at `hit` straight on, into the medium on its far side.
     /// Returns `false` if that is more than [`MAX_CROSSINGS`] crossings: the path ends.
+    #[inline]
     pub fn cross(&mut self, scene: &Scene, hit: &Hit) -> bool {
         self.crossings += 1;
         if self.crossings > MAX_CROSSINGS {
@@ -48,6 +49,7 @@ impl Travel {
 
     /// Leaves the surface at `hit`, where the path scattered, along `wi`: into the medium on the
     /// side `wi` points to (the same one after a reflection), from just off the surface.
+    #[inline]
     pub fn leave(&mut self, scene: &Scene, hit: &Hit, wi: Vec3) {
         let shape = &scene.shapes[hit.tag as usize];
         self.medium = shape.medium_after(self.medium, -self.d, wi, hit.ng);

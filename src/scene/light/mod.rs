@@ -144,11 +144,10 @@ pub struct Emission {
     pub d: Vec3,
     /// Surface normal at the origin for area lights (used to offset the ray), else zero.
     pub n: Vec3,
-    /// Power carried: emitted radiance × cos / (pdf of position × pdf of direction), in W.
+    /// Power carried: emitted radiance × cos / (pdf of position × pdf of direction), in W. The
+    /// densities of the origin and direction drawn are [`Light::pdf_emission`]'s, evaluated
+    /// where a method asks for them.
     pub beta: Rgb,
-    /// The densities of the origin and the direction sampled ([`Light::pdf_emission`]).
-    #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
-    pub pdfs: EmissionPdfs,
 }
 
 /// The densities with which a light emits from a point in a direction, given the light (the
@@ -233,13 +232,7 @@ impl Light {
                 (p, Frame::new(n).to_world(sample_cosine_hemisphere(u_dir)), n, self.power())
             }
         };
-        let mut pdfs = self.pdf_emission(n, d);
-        if let Light::Spot { cos_max, .. } = self {
-            // Drawn inside the cone: its density even where rounding puts a direction drawn at
-            // the rim a hair outside.
-            pdfs.dir = 1.0 / (2.0 * PI * (1.0 - cos_max));
-        }
-        Emission { p, d, n, beta, pdfs }
+        Emission { p, d, n, beta }
     }
 
     /// The densities with which [`Self::sample_emission`] emits in direction `d` from a point of
@@ -247,11 +240,13 @@ impl Light {
     /// over the sphere for a point light and over its cone for a spot light (the falloff is in
     /// the weight), uniform by area and cosine-weighted for an area light (zero behind it),
     /// uniform over the emitting rectangle for a directional light.
+    #[allow(dead_code)] // for the combined estimator's weights; read by the tests now
     pub fn pdf_emission(&self, n: Vec3, d: Vec3) -> EmissionPdfs {
         let (pos, dir) = match self {
             Light::Point { .. } => (1.0, 1.0 / (4.0 * PI)),
             Light::Spot { frame, cos_max, .. } => {
-                let inside = frame.n.dot(d) >= *cos_max;
+                // A direction drawn at the rim may round a few ulps outside: still inside.
+                let inside = frame.n.dot(d) >= *cos_max - 1e-6;
                 (1.0, if inside { 1.0 / (2.0 * PI * (1.0 - cos_max)) } else { 0.0 })
             }
             Light::Directional { edge_s, edge_t, .. } => {
@@ -438,7 +433,10 @@ mod tests {
                 let e = point.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert_eq!(e.p, Vec3::ONE);
                 assert!((e.beta - point.power()).abs().max_element() < 1e-4);
-                assert_eq!(e.pdfs, EmissionPdfs { pos: 1.0, dir: 1.0 / (4.0 * PI) });
+                assert_eq!(
+                    point.pdf_emission(e.n, e.d),
+                    EmissionPdfs { pos: 1.0, dir: 1.0 / (4.0 * PI) }
+                );
                 Some(Sample::Direction(e.d))
             },
             |d| point.pdf_emission(Vec3::ZERO, d.direction()).dir as f64,
@@ -449,8 +447,9 @@ mod tests {
             |s| {
                 let e = rect.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert!((e.n - Vec3::Z).length() < 1e-6 && e.beta == rect.power());
-                assert_eq!(e.pdfs.pos, 0.5, "uniform over an area of 2");
-                assert!((e.pdfs.dir - e.d.z / PI).abs() < 1e-6, "cosine-weighted");
+                let pdfs = rect.pdf_emission(e.n, e.d);
+                assert_eq!(pdfs.pos, 0.5, "uniform over an area of 2");
+                assert!((pdfs.dir - e.d.z / PI).abs() < 1e-6, "cosine-weighted");
                 let uv = DVec2::new((e.p.x as f64 + 1.0) / 2.0, e.p.y as f64 + 0.5);
                 Some(Sample::Point(uv))
             },
@@ -470,8 +469,9 @@ mod tests {
             |s| {
                 let e = sphere.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert!(e.n.dot(e.d) >= 0.0, "emitted inwards");
-                assert!((e.pdfs.pos - 1.0 / PI).abs() < 1e-6, "uniform over an area of π");
-                assert!((e.pdfs.dir - e.n.dot(e.d) / PI).abs() < 1e-6, "cosine-weighted");
+                let pdfs = sphere.pdf_emission(e.n, e.d);
+                assert!((pdfs.pos - 1.0 / PI).abs() < 1e-6, "uniform over an area of π");
+                assert!((pdfs.dir - e.n.dot(e.d) / PI).abs() < 1e-6, "cosine-weighted");
                 Some(Sample::Direction((e.p - Vec3::new(0.0, 0.0, 2.0)) / 0.5))
             },
             // Per steradian of the unit sphere: per unit area times r².
@@ -494,7 +494,7 @@ mod tests {
                 let e = spot.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 betas.push(e.beta.x as f64);
                 let cone = 1.0 / (2.0 * PI * (1.0 - cos_max));
-                assert_eq!(e.pdfs, EmissionPdfs { pos: 1.0, dir: cone });
+                assert_eq!(spot.pdf_emission(e.n, e.d), EmissionPdfs { pos: 1.0, dir: cone });
                 Some(Sample::Direction(e.d))
             },
             |d| spot.pdf_emission(Vec3::ZERO, d.direction()).dir as f64,
@@ -530,7 +530,7 @@ mod tests {
                 let e = sun.sample_emission(s.next_f32(), s.next_2d(), s.next_2d());
                 assert_eq!(e.d, direction);
                 assert!((e.p - corner).dot(direction).abs() < 1e-3, "off the rectangle");
-                assert_eq!(e.pdfs, EmissionPdfs { pos: 1.0 / area, dir: 1.0 });
+                assert_eq!(sun.pdf_emission(e.n, e.d), EmissionPdfs { pos: 1.0 / area, dir: 1.0 });
                 let (u, v) = local(e.p);
                 Some(Sample::Point(DVec2::new(u as f64, v as f64)))
             },
