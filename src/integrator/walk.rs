@@ -123,7 +123,7 @@ pub(crate) fn walk_eye(
             to_emitter(&mut path, visitor);
             break;
         }
-        match step(scene, &mut Walking { path: &mut path, visitor }) {
+        match step(scene, &mut Walking { path: &mut path, visitor, spent: false }) {
             Vertex::Crossed => continue,
             Vertex::Stop => break,
             Vertex::Scattered => {
@@ -141,6 +141,11 @@ pub(crate) fn walk_eye(
 struct Walking<'p, 'a, V> {
     path: &'p mut EyePath<'a>,
     visitor: &'p mut V,
+    /// The path has used up its events (its last one a specular bounce): it goes straight on
+    /// through pass-through interfaces and the transmittance of the media it crosses to the
+    /// emitter it reaches, if any (light → (specular)* → eye paths of exactly `max_bounces`
+    /// events).
+    spent: bool,
 }
 
 impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
@@ -150,12 +155,16 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
 
     /// Emission along the segment, seen straight on: every integrator counts it in full (nothing
     /// else samples it from here; nothing is drawn for a medium that does not emit); then the
-    /// visitor's estimate.
+    /// visitor's estimate, or for a spent path the transmittance.
     fn in_medium(&mut self, scene: &Scene, id: u32, t_max: f32) -> Option<Vertex> {
         let path = &mut *self.path;
         let m = &scene.media[id as usize];
         let Travel { o, d, .. } = path.ray;
         path.l += path.beta * m.emitted(o, d, t_max, &mut path.s);
+        if self.spent {
+            path.beta *= m.transmittance(o, d, t_max, &mut path.s);
+            return (path.beta.max_element() <= 0.0).then_some(Vertex::Stop);
+        }
         match self.visitor.medium(path, m, id, t_max) {
             Next::Stop => Some(Vertex::Stop),
             Next::Scatter { o, d } => {
@@ -173,9 +182,12 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
         }
     }
 
-    /// A diffuse surface goes to the visitor, a specular one turns the path.
+    /// A diffuse surface goes to the visitor, a specular one turns the path; a spent path ends.
     fn at_surface(&mut self, scene: &Scene, hit: &Hit, material: &Material) -> Vertex {
         let path = &mut *self.path;
+        if self.spent {
+            return Vertex::Stop;
+        }
         if let Material::Diffuse { .. } = material {
             return match self.visitor.diffuse(path, hit, material) {
                 Next::Scatter { o, d } => {
@@ -199,41 +211,8 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
     }
 }
 
-/// A path that has used up its events (its last one a specular bounce), followed straight on
-/// through pass-through interfaces and the transmittance of the media it crosses to the emitter
-/// it reaches, if any: light → (specular)* → eye paths of exactly `max_bounces` events.
-struct ToEmitter<'p, 'a, V> {
-    path: &'p mut EyePath<'a>,
-    visitor: &'p mut V,
-}
-
-impl<V: EyeVisitor> Traveller for ToEmitter<'_, '_, V> {
-    fn travel(&mut self) -> &mut Travel {
-        &mut self.path.ray
-    }
-
-    fn in_medium(&mut self, scene: &Scene, id: u32, t_max: f32) -> Option<Vertex> {
-        let path = &mut *self.path;
-        let m = &scene.media[id as usize];
-        let Travel { o, d, .. } = path.ray;
-        path.l += path.beta * m.emitted(o, d, t_max, &mut path.s);
-        path.beta *= m.transmittance(o, d, t_max, &mut path.s);
-        (path.beta.max_element() <= 0.0).then_some(Vertex::Stop)
-    }
-
-    fn reached(&mut self, scene: &Scene, hit: &Hit) {
-        if let Some(le) = scene.le(hit, -self.path.ray.d) {
-            self.path.l += self.visitor.emission(self.path, hit, le);
-        }
-    }
-
-    fn at_surface(&mut self, _scene: &Scene, _hit: &Hit, _material: &Material) -> Vertex {
-        Vertex::Stop
-    }
-}
-
-/// Adds the emitter a path that has used up its events reaches, if any ([`ToEmitter`]).
+/// Adds the emitter a path that has used up its events reaches, if any (a spent [`Walking`]).
 fn to_emitter(path: &mut EyePath, visitor: &mut impl EyeVisitor) {
     let scene = path.scene;
-    while step(scene, &mut ToEmitter { path, visitor }) == Vertex::Crossed {}
+    while step(scene, &mut Walking { path, visitor, spent: true }) == Vertex::Crossed {}
 }

@@ -215,12 +215,6 @@ impl VdbMedium {
         self
     }
 
-    /// True if the extinction differs between channels somewhere (spectral tracking needed).
-    #[inline]
-    fn coloured(&self) -> bool {
-        self.tint.is_some() || self.extinction_grid.is_some()
-    }
-
     /// The (normalised) extinction grid's colour at `p`; 1 without one.
     #[inline]
     fn extinction_colour(&self, p: Vec3) -> Rgb {

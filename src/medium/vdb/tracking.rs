@@ -90,9 +90,10 @@ impl Tracked for VdbMedium {
         self.sigma_t * self.density(p)
     }
 
+    /// With a tint or an extinction grid (spectral tracking needed).
     #[inline]
     fn coloured(&self) -> bool {
-        self.coloured()
+        self.tint.is_some() || self.extinction_grid.is_some()
     }
 
     #[inline]
