@@ -197,6 +197,10 @@ impl Image {
         let i = &self.info;
         let method = match i.settings.integrator {
             Integrator::Path => "path tracer (unbiased)".to_string(),
+            Integrator::Combined => format!(
+                "combined estimator ({} light paths, final radius {:.3e}, volume radius {:.3e}; consistent, not unbiased)",
+                i.light_paths, i.radius, i.volume_radius
+            ),
             Integrator::PhotonMapping | Integrator::Hybrid => format!(
                 "{} ({} volume estimate, {} light paths, final radius {:.3e}, volume radius {:.3e}; consistent, not unbiased)",
                 if i.settings.integrator == Integrator::Hybrid {

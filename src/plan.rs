@@ -58,6 +58,8 @@ pub(crate) enum MethodKind {
     Original,
     /// The reference path tracer.
     Path,
+    /// Eye paths, next-event estimation and photon merging combined by MIS.
+    Combined,
 }
 
 /// A render's settings, checked and resolved against its scene.
@@ -114,6 +116,12 @@ impl Plan {
         }
         let method = match (settings.integrator, settings.progression) {
             (Integrator::Path, _) => MethodKind::Path,
+            (Integrator::Combined, Progression::Probabilistic) => MethodKind::Combined,
+            (Integrator::Combined, Progression::Original) => {
+                return Err(Error::Settings(
+                    "progression: \"original\" is a comparison mode of photon mapping; the combined integrator runs on the probabilistic schedule".into(),
+                ));
+            }
             (_, Progression::Probabilistic) => MethodKind::PhotonMapping,
             (_, Progression::Original) => MethodKind::Original,
         };
@@ -139,6 +147,7 @@ impl Plan {
             beam_cell_budget: settings.beam_cell_budget,
             // The original PPM, a comparison mode, stays the classic method.
             guiding: settings.photon_guiding == PhotonGuiding::Visibility
+                && method == MethodKind::PhotonMapping
                 && settings.progression == Progression::Probabilistic
                 && !scene.has_emissive_media(),
             surface,

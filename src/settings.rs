@@ -31,7 +31,7 @@
 //! volume_alpha = 0.5        # α of the volume schedule r³(i+1)/r³(i) = (i+α)/(i+1)
 //! volume_radius_fraction = 0.005  # initial volume radius (or `volume_radius`, absolute)
 //! volume_dimension = 3      # dimension d of the volume schedule (3; 2 for experiments)
-//! integrator = "hybrid"     # "hybrid" (light sampling + photons), "photons" or "path"
+//! integrator = "hybrid"     # "hybrid" (light sampling + photons), "photons", "path" or "combined"
 //! progression = "probabilistic"  # or "original": Hachisuka 2008 per-pixel statistics (surfaces only)
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
 //! emission_nee_distance = 2  # emitting media's light on surfaces from ≥ this far by next-event estimation (hybrid; off if absent)
@@ -56,6 +56,11 @@ choices! {
         PhotonMapping = "photons",
         /// The unbiased volumetric path tracer with next-event estimation (reference and baseline).
         Path = "path",
+        /// Every estimator at once, weighed by multiple importance sampling: eye paths that
+        /// reach lights, next-event estimation, and photon merging on surfaces, at points and
+        /// along beams in media (UPBP's techniques without connections and photon beams;
+        /// docs/theory.md).
+        Combined = "combined",
     }
 }
 

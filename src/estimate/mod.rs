@@ -5,6 +5,7 @@
 //! bias ([`Estimate`]; docs/theory.md, "The kernel bias of each pixel").
 
 pub mod kernel;
+pub(crate) mod mis;
 pub mod radius;
 pub mod surface;
 pub mod volume;

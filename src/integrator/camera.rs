@@ -186,7 +186,14 @@ impl<F> PhotonEye<'_, F> {
 }
 
 impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for PhotonEye<'_, F> {
-    fn medium(&mut self, path: &mut EyePath, m: &Medium, id: u32, t_max: f32) -> Next {
+    fn medium(
+        &mut self,
+        path: &mut EyePath,
+        m: &Medium,
+        id: u32,
+        t_max: f32,
+        _end: Option<&Hit>,
+    ) -> Next {
         let (o, d) = (path.ray.o, path.ray.d);
         match self.pass.estimate {
             VolumeEstimate::Beam => {

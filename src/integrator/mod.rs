@@ -5,9 +5,12 @@
 //!   (`camera.rs`), the film takes the mean of the iterations;
 //! - the original PPM's per-pixel statistics (`original.rs`), a comparison mode on the same photon
 //!   pass and maps, whose film holds the running estimate instead of a mean;
-//! - the unbiased reference path tracer (`path.rs`): one path per pixel.
+//! - the unbiased reference path tracer (`path.rs`): one path per pixel;
+//! - the combined estimator (`combined.rs`): eye paths, next-event estimation and photon
+//!   merging weighed by multiple importance sampling, on the probabilistic schedule.
 
 pub(crate) mod camera;
+pub(crate) mod combined;
 pub(crate) mod direct;
 pub(crate) mod frame;
 pub(crate) mod original;
@@ -19,6 +22,7 @@ pub(crate) mod walk;
 use crate::film::Film;
 use crate::plan::{MethodKind, Plan, Radii};
 use crate::scene::Scene;
+use combined::Combined;
 use frame::{Frame, StepTimes};
 use original::OriginalPpm;
 use path::PathTracer;
@@ -33,6 +37,8 @@ pub(crate) enum Method {
     Original(OriginalPpm),
     /// The reference path tracer.
     Path(PathTracer),
+    /// Eye paths, next-event estimation and photon merging combined by MIS.
+    Combined(Combined),
 }
 
 impl Method {
@@ -42,6 +48,7 @@ impl Method {
             MethodKind::Path => Method::Path(PathTracer::new(scene, plan)),
             MethodKind::PhotonMapping => Method::PhotonMapping(PhotonMapper::new(scene, plan)),
             MethodKind::Original => Method::Original(OriginalPpm::new(scene, plan)),
+            MethodKind::Combined => Method::Combined(Combined::new(scene, plan)),
         }
     }
 
@@ -60,6 +67,7 @@ impl Method {
             Method::PhotonMapping(m) => m.iterate(scene, i, stop, nonfinite, frame),
             Method::Original(m) => m.iterate(scene, i, stop, nonfinite, frame),
             Method::Path(m) => m.iterate(scene, i, stop, nonfinite, frame),
+            Method::Combined(m) => m.iterate(scene, i, stop, nonfinite, frame),
         }
     }
 
@@ -81,7 +89,7 @@ impl Method {
     ) -> Option<ppm::PhotonUsage> {
         match self {
             Method::PhotonMapping(m) => m.photon_usage(scene, i, stop),
-            Method::Original(_) | Method::Path(_) => None,
+            Method::Original(_) | Method::Path(_) | Method::Combined(_) => None,
         }
     }
 
@@ -120,6 +128,7 @@ impl Method {
             Method::PhotonMapping(m) => m.plan().radii(i),
             Method::Original(m) => m.radii(i),
             Method::Path(m) => m.radii(i),
+            Method::Combined(m) => m.radii(i),
         }
     }
 
@@ -128,6 +137,7 @@ impl Method {
         match self {
             Method::PhotonMapping(m) => m.paths(),
             Method::Original(m) => m.paths(),
+            Method::Combined(m) => m.paths(),
             Method::Path(_) => 0,
         }
     }
@@ -137,6 +147,7 @@ impl Method {
         match self {
             Method::PhotonMapping(m) => m.stored(),
             Method::Original(m) => m.stored(),
+            Method::Combined(m) => m.stored(),
             Method::Path(_) => [0, 0],
         }
     }

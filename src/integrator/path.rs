@@ -99,7 +99,14 @@ struct PathEye<'a> {
 }
 
 impl EyeVisitor for PathEye<'_> {
-    fn medium(&mut self, path: &mut EyePath, m: &Medium, id: u32, t_max: f32) -> Next {
+    fn medium(
+        &mut self,
+        path: &mut EyePath,
+        m: &Medium,
+        id: u32,
+        t_max: f32,
+        _end: Option<&Hit>,
+    ) -> Next {
         let (o, d) = (path.ray.o, path.ray.d);
         // Direct light scattered once anywhere along the segment (equiangular and
         // transmittance-proportional distances, MIS); the path itself goes on by free flight
@@ -174,7 +181,7 @@ impl EyeVisitor for PathEye<'_> {
         Next::Scatter { o: r.p, d: bs.wi }
     }
 
-    fn after_specular(&mut self, _path: &mut EyePath) {
+    fn after_specular(&mut self, _path: &mut EyePath, _hit: &Hit, _wo: glam::Vec3) {
         // Next-event estimation could not have found an emitter behind a mirror or glass.
         self.count_emission = true;
         self.scattered_from = None;
@@ -190,7 +197,7 @@ impl EyeVisitor for PathEye<'_> {
 /// media after ~20 events whatever their throughput; in optically thick media, where light needs
 /// thousands of events to escape, the survivors' weights 0.95^−k then made the estimate useless.)
 #[inline]
-fn roulette(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
+pub(crate) fn roulette(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
     if beta.max_element() <= 0.0 {
         return false;
     }

@@ -129,6 +129,7 @@ impl PhotonMapper {
             skip_direct: self.plan.hybrid,
             media_near: self.plan.media_near,
             record,
+            mis: None,
         }
     }
 

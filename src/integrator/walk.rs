@@ -59,9 +59,17 @@ impl EyePath<'_> {
 
 /// What an integrator does along an eye path.
 pub(crate) trait EyeVisitor {
-    /// The segment `path.o + t path.d`, 0 < t < `t_max`, lies in medium `medium` (index `id`):
-    /// estimate what it contributes, update the throughput, and say where the path goes.
-    fn medium(&mut self, path: &mut EyePath, medium: &Medium, id: u32, t_max: f32) -> Next;
+    /// The segment `path.o + t path.d`, 0 < t < `t_max`, lies in medium `medium` (index `id`)
+    /// and ends at the surface `end`, if any: estimate what it contributes, update the
+    /// throughput, and say where the path goes.
+    fn medium(
+        &mut self,
+        path: &mut EyePath,
+        medium: &Medium,
+        id: u32,
+        t_max: f32,
+        end: Option<&Hit>,
+    ) -> Next;
 
     /// The path reached the front of an emitting shape (radiance `le`); returns what it adds to
     /// the path's radiance, throughput included.
@@ -70,8 +78,9 @@ pub(crate) trait EyeVisitor {
     /// The path reached a diffuse surface (`material`) at `hit`.
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next;
 
-    /// After a specular bounce (the path already turned).
-    fn after_specular(&mut self, _path: &mut EyePath) {}
+    /// After a specular bounce at `hit` (the path already turned; `wo` points back the way it
+    /// came).
+    fn after_specular(&mut self, _path: &mut EyePath, _hit: &Hit, _wo: Vec3) {}
 
     /// After every scattering event: false ends the path (Russian roulette).
     fn survive(&mut self, _path: &mut EyePath) -> bool {
@@ -156,7 +165,13 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
     /// Emission along the segment, seen straight on: every integrator counts it in full (nothing
     /// else samples it from here; nothing is drawn for a medium that does not emit); then the
     /// visitor's estimate, or for a spent path the transmittance.
-    fn in_medium(&mut self, scene: &Scene, id: u32, t_max: f32) -> Option<Vertex> {
+    fn in_medium(
+        &mut self,
+        scene: &Scene,
+        id: u32,
+        t_max: f32,
+        end: Option<&Hit>,
+    ) -> Option<Vertex> {
         let path = &mut *self.path;
         let m = &scene.media[id as usize];
         let Travel { o, d, .. } = path.ray;
@@ -165,7 +180,7 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
             path.beta *= m.transmittance(o, d, t_max, &mut path.s);
             return (path.beta.max_element() <= 0.0).then_some(Vertex::Stop);
         }
-        match self.visitor.medium(path, m, id, t_max) {
+        match self.visitor.medium(path, m, id, t_max, end) {
             Next::Stop => Some(Vertex::Stop),
             Next::Scatter { o, d } => {
                 (path.ray.o, path.ray.d) = (o, d);
@@ -206,7 +221,7 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
         };
         path.beta *= bs.weight;
         path.ray.leave(scene, hit, bs.wi);
-        self.visitor.after_specular(path);
+        self.visitor.after_specular(path, hit, wo);
         Vertex::Scattered
     }
 }

@@ -840,17 +840,20 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
                 })
             })
             .collect(),
-        "integrator" => [Integrator::Hybrid, Integrator::PhotonMapping, Integrator::Path]
-            .iter()
-            .map(|&i| {
-                let label = match i {
-                    Integrator::Hybrid => "hybrid",
-                    Integrator::PhotonMapping => "photon mapping",
-                    Integrator::Path => "path tracing",
-                };
-                with(label.to_string(), &|s| s.integrator = i)
-            })
-            .collect(),
+        "integrator" => {
+            [Integrator::Combined, Integrator::Hybrid, Integrator::PhotonMapping, Integrator::Path]
+                .iter()
+                .map(|&i| {
+                    let label = match i {
+                        Integrator::Combined => "combined",
+                        Integrator::Hybrid => "hybrid",
+                        Integrator::PhotonMapping => "photon mapping",
+                        Integrator::Path => "path tracing",
+                    };
+                    with(label.to_string(), &|s| s.integrator = i)
+                })
+                .collect()
+        }
         _ => {
             return Err(format!(
                 "unknown comparison `{name}`; expected estimate, alpha, volume-alpha, kernel, dimension, photons, progression or integrator"

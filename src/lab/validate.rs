@@ -1331,12 +1331,14 @@ fn mirrored_case(
 /// The methods every case is rendered with: (name, integrator, volume estimate).
 type Method = (&'static str, Integrator, VolumeEstimate);
 
-const METHODS: [Method; 5] = [
+const METHODS: [Method; 6] = [
     ("hybrid/beam", Integrator::Hybrid, VolumeEstimate::Beam),
     ("hybrid/point", Integrator::Hybrid, VolumeEstimate::Point),
     ("photons/beam", Integrator::PhotonMapping, VolumeEstimate::Beam),
     ("photons/point", Integrator::PhotonMapping, VolumeEstimate::Point),
     ("path", Integrator::Path, VolumeEstimate::Beam),
+    // Both volume merges at the beam's radius (its volume estimate setting is not read).
+    ("combined", Integrator::Combined, VolumeEstimate::Beam),
 ];
 
 /// With paths of one scattering event the hybrid leaves nothing to its photons (it stores none
@@ -1415,7 +1417,8 @@ fn run_cases(
             }
             let (mut xs, mut stated, mut covered) = (Vec::new(), Vec::new(), (0u32, 0u32));
             let settings = case_settings(&scene, case, &effort, integrator, estimate);
-            let kernel = (!next_event)
+            let combined = integrator == Integrator::Combined;
+            let kernel = (!next_event && !combined)
                 .then(|| kernel_expectation(case, &settings, effort.iterations))
                 .flatten();
             let expected = kernel.unwrap_or(case.reference);
@@ -1441,6 +1444,7 @@ fn run_cases(
             let bias = case.setup_bias
                 + match (integrator, kernel) {
                     _ if next_event => 0.0,
+                    _ if combined => combined_bias(case, &settings, effort.iterations),
                     // Known exactly: only the quadrature's error remains (10⁻⁹ relative for the
                     // Epanechnikov kernel, 1.5·10⁻⁶ for the constant one, whose marginal has a
                     // square-root edge).
@@ -1494,7 +1498,7 @@ fn kernel_expectation(case: &Case, settings: &RenderSettings, iterations: u64) -
     let (integrator, estimate) = (settings.integrator, settings.volume_estimate);
     let f = case.expected.as_ref()?;
     let n = iterations;
-    let r1 = case.radius(estimate);
+    let r1 = settings.volume_radius.unwrap_or(case.radius(estimate));
     let (alpha, dim) = (settings.volume_alpha, settings.volume_dimension);
     (1..=n)
         .map(|i| {
@@ -1507,6 +1511,28 @@ fn kernel_expectation(case: &Case, settings: &RenderSettings, iterations: u64) -
         })
         .sum::<Option<f64>>()
         .map(|sum| sum / n as f64)
+}
+
+/// A bound on the kernel bias of the combined integrator's image: its merges are the beam and
+/// the point estimate at the same radius, each weighted by at most one, so their bias is at most
+/// the sum of the two estimates' (each its exact deviation from the reference where the case
+/// knows its expectation, else the case's bound).
+fn combined_bias(case: &Case, settings: &RenderSettings, iterations: u64) -> f64 {
+    let r = settings.volume_radius.unwrap_or(case.radius(VolumeEstimate::Beam));
+    [VolumeEstimate::Beam, VolumeEstimate::Point]
+        .iter()
+        .map(|&estimate| {
+            let s = RenderSettings {
+                integrator: Integrator::PhotonMapping,
+                volume_estimate: estimate,
+                ..settings.clone()
+            };
+            match kernel_expectation(case, &s, iterations) {
+                Some(e) => (e - case.reference).abs(),
+                None => (case.bias)(estimate, r).abs(),
+            }
+        })
+        .sum()
 }
 
 /// An image's own 95 % bound on the error of its mean value: 1.707 |b̂| + t σ̂ (see

@@ -300,6 +300,13 @@ impl Medium {
         }
     }
 
+    /// The extinction at `p`, averaged over the channels (the combined estimator's weights,
+    /// `estimate/mis.rs`).
+    #[inline]
+    pub fn mean_sigma_t(&self, p: Vec3) -> f32 {
+        crate::math::luminance(self.sigma_s(p) + self.sigma_a(p))
+    }
+
     /// The phase function.
     #[inline]
     pub fn phase(&self) -> &HenyeyGreenstein {

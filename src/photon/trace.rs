@@ -8,10 +8,11 @@
 use super::guide::{EmissionGuide, Guided, guided};
 use super::{Photon, VolumePhoton};
 use crate::accel::Hit;
+use crate::estimate::mis::{Emitted, Kernels, LightMis, Site};
 use crate::math::{Rgb, offset_origin};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
-use crate::scene::light::LightSampler;
+use crate::scene::light::{Emission, Light, LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
 use crate::scene::step::{Travel, Traveller, Vertex, step};
 use glam::{Vec2, Vec3};
@@ -44,6 +45,21 @@ pub struct PhotonPass {
     pub media_near: f32,
     /// Record each path's light and guided uniforms, and each photon's path (the guiding pilot).
     pub record: bool,
+    /// With the combined estimator's kernels: give each photon its weight record
+    /// ([`Photons::surface_mis`]) and emit from the lights alone (the combined estimator's eye
+    /// paths gather the light of emitting media themselves).
+    pub mis: Option<Kernels>,
+}
+
+/// A stored photon's record for the combined estimator's weights (`estimate/mis.rs`).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct PhotonMis {
+    /// The light's side of the path, relative to merging here.
+    pub light: LightMis,
+    /// The medium's mean extinction at a volume photon (0 on a surface).
+    pub sigma: f32,
+    /// Unit direction towards where the light came from.
+    pub wi: Vec3,
 }
 
 /// Photons left by a pass.
@@ -59,6 +75,10 @@ pub struct Photons {
     pub(crate) volume_path: Vec<u32>,
     /// … and each path's light and guided pair of uniforms.
     pub(crate) paths: Vec<(u32, Vec2)>,
+    /// With `PhotonPass::mis`: each surface photon's weight record …
+    pub(crate) surface_mis: Vec<PhotonMis>,
+    /// … and each volume photon's.
+    pub(crate) volume_mis: Vec<PhotonMis>,
 }
 
 impl Photons {
@@ -68,6 +88,8 @@ impl Photons {
         self.surface_path.clear();
         self.volume_path.clear();
         self.paths.clear();
+        self.surface_mis.clear();
+        self.volume_mis.clear();
     }
 
     fn append(&mut self, other: &Photons) {
@@ -76,6 +98,8 @@ impl Photons {
         self.surface_path.extend_from_slice(&other.surface_path);
         self.volume_path.extend_from_slice(&other.volume_path);
         self.paths.extend_from_slice(&other.paths);
+        self.surface_mis.extend_from_slice(&other.surface_mis);
+        self.volume_mis.extend_from_slice(&other.volume_mis);
     }
 }
 
@@ -120,7 +144,7 @@ fn stored(path: &mut LightPath, pass: &PhotonPass, x: Vec3, surface: bool) -> Op
 }
 
 /// A light path in flight.
-struct LightPath {
+struct LightPath<'a> {
     /// Its index in the pass.
     index: u32,
     s: Sampler,
@@ -134,6 +158,80 @@ struct LightPath {
     /// photon if it is a medium collision or lies nearer than `PhotonPass::media_near`, the light
     /// next-event estimation leaves to photons.
     emitted_at: Option<Vec3>,
+    /// The combined estimator's weight quantities (with `PhotonPass::mis`).
+    mis: Option<PathMis<'a>>,
+}
+
+/// A light path's weight quantities for the combined estimator (`estimate/mis.rs`).
+struct PathMis<'a> {
+    lights: &'a LightSampler,
+    kernels: Kernels,
+    /// How it left the light, until its first vertex.
+    start: Option<Start>,
+    /// The record at its current vertex …
+    here: LightMis,
+    /// … and what it carries to the next.
+    carry: f32,
+}
+
+/// How `light`, picked for emission with probability `p_light`, emits from a point of normal `n`
+/// in direction `d`, for the combined estimator's weights.
+pub(crate) fn emitted(p_light: f32, light: &Light, n: Vec3, d: Vec3) -> Emitted {
+    let pdfs = light.pdf_emission(n, d);
+    let cos = if let Light::Area { .. } = light { n.dot(d).abs() } else { 0.0 };
+    Emitted { emit: p_light * pdfs.pos * pdfs.dir, cos }
+}
+
+/// How a light path left its light.
+struct Start {
+    light: usize,
+    /// Its origin, and the density of the origin on the light.
+    x0: Vec3,
+    pos: f32,
+    e: Emitted,
+    /// A directional light: next-event estimation's density of the origin is per area of its
+    /// emitting rectangle, 1 / `pos`, not per squared distance.
+    directional: bool,
+}
+
+impl<'a> PathMis<'a> {
+    /// Starts the quantities of a light path that left light `li` (`light`, picked with
+    /// probability `p_light`) as `e`.
+    fn new(
+        lights: &'a LightSampler,
+        kernels: Kernels,
+        li: usize,
+        light: &Light,
+        e: &Emission,
+    ) -> Self {
+        let pdfs = light.pdf_emission(e.n, e.d);
+        let emitted = emitted(lights.emission_prob(li), light, e.n, e.d);
+        let directional = matches!(light, Light::Directional { .. });
+        let start = Some(Start { light: li, x0: e.p, pos: pdfs.pos, e: emitted, directional });
+        Self { lights, kernels, start, here: LightMis::default(), carry: 0.0 }
+    }
+
+    /// Arrives at the vertex `x`, with the cosine (or σ) `gamma` against the arriving direction;
+    /// `r`: where next-event estimation could connect to the light (None at a specular vertex).
+    fn arrive(&mut self, x: Vec3, gamma: f32, r: Option<Receiver>) {
+        self.here = match self.start.take() {
+            Some(st) => {
+                let nee = r.map_or(0.0, |r| {
+                    let d2 =
+                        if st.directional { 1.0 / st.pos } else { (x - st.x0).length_squared() };
+                    self.lights.prob(&r, st.light) * st.pos * d2
+                });
+                LightMis::first(st.e, nee, gamma)
+            }
+            None => LightMis::arrive(self.carry, gamma),
+        };
+    }
+
+    /// Leaves the vertex (a `site`) by a direction of density `p_out` and cosine (or σ)
+    /// `gamma_out`; `p_rev`: the eye's density of the direction the light came from, given it.
+    fn leave(&mut self, site: Site, p_rev: f32, gamma_out: f32, p_out: f32) {
+        self.carry = self.here.carry(self.kernels.at(site), p_rev, gamma_out, p_out);
+    }
 }
 
 /// Where photons are emitted: by power and uniformly, or by a guide.
@@ -171,6 +269,7 @@ fn trace_path(
                 beta: e.beta / p_media,
                 bounces: 0,
                 emitted_at: Some(e.p),
+                mis: None,
             };
             follow(scene, pass, path, out);
             return;
@@ -209,12 +308,18 @@ fn trace_path(
     let medium = scene.light_media[li];
     let index = index as u32;
     let (ray, bounces, emitted_at) = (Travel::new(o, e.d, medium), 0, None);
-    let path = LightPath { index, s, ray, beta, bounces, emitted_at };
+    let mis = match (pass.mis, emitting) {
+        // Without emitting media (the combined estimator emits from lights alone) p_lights is
+        // 1 and the light's probability is the sampler's.
+        (Some(k), Emitting::ByPower(lights)) => Some(PathMis::new(lights, k, li, light, &e)),
+        _ => None,
+    };
+    let path = LightPath { index, s, ray, beta, bounces, emitted_at, mis };
     follow(scene, pass, path, out);
 }
 
 /// Follows a light path from its start to its end, storing its photons in `out`.
-fn follow(scene: &Scene, pass: &PhotonPass, path: LightPath, out: &mut Photons) {
+fn follow(scene: &Scene, pass: &PhotonPass, path: LightPath<'_>, out: &mut Photons) {
     let mut tracing = Tracing { pass, path, out };
     while step(scene, &mut tracing) != Vertex::Stop {}
 }
@@ -222,7 +327,7 @@ fn follow(scene: &Scene, pass: &PhotonPass, path: LightPath, out: &mut Photons) 
 /// A light path on its way, the pass it belongs to and the photons it leaves.
 struct Tracing<'a> {
     pass: &'a PhotonPass,
-    path: LightPath,
+    path: LightPath<'a>,
     out: &'a mut Photons,
 }
 
@@ -232,7 +337,13 @@ impl Traveller for Tracing<'_> {
     }
 
     /// A collision stores a volume photon and scatters the path.
-    fn in_medium(&mut self, scene: &Scene, id: u32, t_max: f32) -> Option<Vertex> {
+    fn in_medium(
+        &mut self,
+        scene: &Scene,
+        id: u32,
+        t_max: f32,
+        _end: Option<&Hit>,
+    ) -> Option<Vertex> {
         let Tracing { pass, path, out } = self;
         let m = &scene.media[id as usize];
         let Travel { o, d, .. } = path.ray;
@@ -244,6 +355,15 @@ impl Traveller for Tracing<'_> {
         }
         let p = o + d * flight.t;
         let sigma_s = m.sigma_s(p);
+        // The combined estimator's weights: σ̄ is the density's factor at a collision.
+        let sigma = match &mut path.mis {
+            Some(mis) => {
+                let sigma = m.mean_sigma_t(p);
+                mis.arrive(p, sigma, Some(Receiver::medium(p)));
+                sigma
+            }
+            None => 0.0,
+        };
         // The collision's survival weight T/p(t) · σ_s: the albedo σ_s/σ_t for a grey medium.
         let survival = path.beta * sigma_s;
         // Power convention (see `VolumePhoton`): β after the free-flight pdf, before σ_s. Where
@@ -255,6 +375,9 @@ impl Traveller for Tracing<'_> {
                 out.volume.push(VolumePhoton { p, d, beta, medium: id as u16, bounces });
                 if pass.record {
                     out.volume_path.push(path.index);
+                }
+                if let Some(mis) = &path.mis {
+                    out.volume_mis.push(PhotonMis { light: mis.here, sigma, wi: -d });
                 }
             }
         }
@@ -270,6 +393,10 @@ impl Traveller for Tracing<'_> {
         let Some(b) = roulette(before, survival, path.s.next_f32()) else {
             return Some(Vertex::Stop);
         };
+        if let Some(mis) = &mut path.mis {
+            // The phase function is symmetric: the eye's reverse density is the same.
+            mis.leave(Site::Medium(sigma), ps.pdf, sigma, ps.pdf);
+        }
         (path.beta, path.ray.o, path.ray.d) = (b, p, ps.wi);
         Some(Vertex::Scattered)
     }
@@ -278,14 +405,21 @@ impl Traveller for Tracing<'_> {
     fn at_surface(&mut self, scene: &Scene, hit: &Hit, material: &Material) -> Vertex {
         let Tracing { pass, path, out } = self;
         let wo = -path.ray.d;
-        if material.is_diffuse() {
+        let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+        let diffuse = material.is_diffuse();
+        if let Some(mis) = &mut path.mis {
+            mis.arrive(hit.p, wo.dot(n), diffuse.then(|| Receiver::surface(hit.p, n)));
+        }
+        if diffuse {
             // Power convention (see `Photon`): store the path throughput as it arrives.
-            let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
             if let Some(scale) = stored(path, pass, hit.p, true) {
                 let (beta, bounces) = (path.beta * scale, path.bounces as u16);
                 out.surface.push(Photon { p: hit.p, n, beta, bounces });
                 if pass.record {
                     out.surface_path.push(path.index);
+                }
+                if let Some(mis) = &path.mis {
+                    out.surface_mis.push(PhotonMis { light: mis.here, sigma: 0.0, wi: wo });
                 }
             }
         }
@@ -301,6 +435,16 @@ impl Traveller for Tracing<'_> {
         let Some(b) = roulette(path.beta, path.beta * bs.weight, path.s.next_f32()) else {
             return Vertex::Stop;
         };
+        if let Some(mis) = &mut path.mis {
+            let gamma_out = bs.wi.dot(hit.ng).abs();
+            if diffuse {
+                let p_rev = material.pdf(bs.wi, wo, hit.ng, hit.ns);
+                mis.leave(Site::Surface, p_rev, gamma_out, bs.pdf);
+            } else {
+                // A delta's densities are 1 both ways.
+                mis.leave(Site::Specular, 1.0, gamma_out, 1.0);
+            }
+        }
         path.beta = b;
         path.ray.leave(scene, hit, bs.wi);
         Vertex::Scattered
@@ -322,8 +466,12 @@ pub(crate) fn trace_photons(
     if lights.is_empty() && scene.emissive_media.is_empty() {
         return true;
     }
-    // Emitting media's share of the photons: their share of the power.
-    let media = scene.emissive_media.power();
+    if pass.mis.is_some() && lights.is_empty() {
+        return true;
+    }
+    // Emitting media's share of the photons: their share of the power (none for the combined
+    // estimator).
+    let media = if pass.mis.is_some() { 0.0 } else { scene.emissive_media.power() };
     let p_media = if media > 0.0 { media / (media + lights.total_power()) } else { 0.0 };
     let emitting = match guide {
         Some(g) => Emitting::Guided(g),

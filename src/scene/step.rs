@@ -81,8 +81,15 @@ pub(crate) trait Traveller {
     fn travel(&mut self) -> &mut Travel;
 
     /// The segment o + t d, 0 < t < `t_max` (the hit's distance, or infinity), lies in medium
-    /// `id`: what the path does there. `None`: it goes on to the surface at `t_max`, if any.
-    fn in_medium(&mut self, scene: &Scene, id: u32, t_max: f32) -> Option<Vertex>;
+    /// `id`: what the path does there. `None`: it goes on to the surface at `t_max`, if any
+    /// (`end`).
+    fn in_medium(
+        &mut self,
+        scene: &Scene,
+        id: u32,
+        t_max: f32,
+        end: Option<&Hit>,
+    ) -> Option<Vertex>;
 
     /// The path reached the surface at `hit`, whatever it is (before it crosses or scatters).
     fn reached(&mut self, _scene: &Scene, _hit: &Hit) {}
@@ -101,7 +108,7 @@ pub(crate) fn step(scene: &Scene, path: &mut impl Traveller) -> Vertex {
     let hit = scene.intersect(o, d, f32::INFINITY);
     if let Some(id) = medium {
         let t_max = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-        if let Some(vertex) = path.in_medium(scene, id, t_max) {
+        if let Some(vertex) = path.in_medium(scene, id, t_max, hit.as_ref()) {
             return vertex;
         }
     }

@@ -34,8 +34,9 @@ fn image_is_bit_identical_across_thread_counts() {
 }
 
 /// Media: the beam estimate through the view bins (pinhole camera outside the fog, and inside it
-/// in spotlight-fog) and the grid (segments refracted by the lens), with and without thinning, and
-/// the point estimate.
+/// in spotlight-fog) and the grid (segments refracted by the lens), with and without thinning, the
+/// point estimate, and the combined integrator (with thinning: its merges find each photon's
+/// weight record through the thinned map).
 #[test]
 fn media_images_are_bit_identical_across_thread_counts() {
     for (name, size) in
@@ -48,7 +49,11 @@ fn media_images_are_bit_identical_across_thread_counts() {
         thinned.beam_cell_budget = Some(4);
         let mut point = beam.clone();
         point.volume_estimate = VolumeEstimate::Point;
-        for (label, settings) in [("beam", &beam), ("thinned", &thinned), ("point", &point)] {
+        let mut combined = thinned.clone();
+        combined.integrator = haze::settings::Integrator::Combined;
+        for (label, settings) in
+            [("beam", &beam), ("thinned", &thinned), ("point", &point), ("combined", &combined)]
+        {
             let one = render_settings(&scene, settings, 1, 5);
             for threads in [2, 3] {
                 let other = render_settings(&scene, settings, threads, 5);

@@ -60,6 +60,7 @@ fn ranges_merge_and_resume_exactly_in_homogeneous_fog() {
         }
     }
     check_exact("spotlight-fog.toml", &settings(Integrator::Path, VolumeEstimate::Beam));
+    check_exact("spotlight-fog.toml", &settings(Integrator::Combined, VolumeEstimate::Beam));
 }
 
 #[test]
@@ -67,6 +68,7 @@ fn ranges_merge_and_resume_exactly_in_a_vdb_cloud() {
     check_exact("cornell-cloud.toml", &settings(Integrator::Hybrid, VolumeEstimate::Beam));
     check_exact("cornell-cloud.toml", &settings(Integrator::PhotonMapping, VolumeEstimate::Point));
     check_exact("cornell-cloud.toml", &settings(Integrator::Path, VolumeEstimate::Beam));
+    check_exact("cornell-cloud.toml", &settings(Integrator::Combined, VolumeEstimate::Beam));
 }
 
 /// The original PPM's per-pixel statistics depend on every earlier iteration: ranges are

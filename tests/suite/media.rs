@@ -62,13 +62,15 @@ pub(crate) fn furnace_with_light(le: Vec3, medium: MediumDesc, light: Option<Lig
 }
 
 /// Every method of the furnace-style tests: both volume estimates in the hybrid and in photon
-/// mapping alone, and the path tracer.
-pub(crate) const METHODS: [(VolumeEstimate, Integrator); 5] = [
+/// mapping alone, the path tracer, and the combined integrator (both volume merges, at the
+/// radius given).
+pub(crate) const METHODS: [(VolumeEstimate, Integrator); 6] = [
     (VolumeEstimate::Beam, Integrator::Hybrid),
     (VolumeEstimate::Point, Integrator::Hybrid),
     (VolumeEstimate::Beam, Integrator::PhotonMapping),
     (VolumeEstimate::Point, Integrator::PhotonMapping),
     (VolumeEstimate::Beam, Integrator::Path),
+    (VolumeEstimate::Beam, Integrator::Combined),
 ];
 
 pub(crate) fn volume_settings(estimate: VolumeEstimate, r: f64, seed: u64) -> RenderSettings {
@@ -133,7 +135,9 @@ fn white_furnace_with_media_for_both_estimators() {
                 // The path tracer has no kernel, hence no bias allowance.
                 let bias = match integrator {
                     Integrator::Path => 0.0,
-                    Integrator::PhotonMapping | Integrator::Hybrid => {
+                    // The combined integrator's merges weigh at most one, each path's error at
+                    // most a kernel estimate's.
+                    Integrator::PhotonMapping | Integrator::Hybrid | Integrator::Combined => {
                         le[c] as f64 * sigma * r / (2.0 * cos_max) * (-sigma * (1.0 - r)).exp()
                     }
                 };

@@ -176,9 +176,15 @@ fn a_two_percent_shift_of_one_channel_fails() {
     assert!(c.red_shift_caught, "a 2 % brighter red channel passed: {}", c.line);
 }
 
-/// A scene compared through tile means over seeds against a committed hybrid reference.
+/// A scene compared through tile means over seeds against a committed reference.
 struct PhotonCase {
     name: &'static str,
+    /// The integrator of the renders …
+    integrator: Integrator,
+    /// … and of the reference (path-traced references' pixels are independent: their variance
+    /// layer gives the noise of a tile's mean; a photon reference's noise enters through
+    /// `reference_iterations`).
+    made_by: Integrator,
     /// Tile edge in pixels.
     tile: u32,
     /// First pixel row compared.
@@ -224,12 +230,12 @@ const ITERATIONS: u64 = 64;
 ///   optically thick (σ_t 60), almost white fog.
 #[test]
 fn the_photon_scenes_match_their_committed_photon_references() {
-    use haze::lab::tiles::tile_means;
-    use statrs::distribution::{ContinuousCDF, StudentsT};
     let seeds = 8u64;
     let cases = [
         PhotonCase {
             name: "glass-caustic",
+            integrator: Integrator::Hybrid,
+            made_by: Integrator::Hybrid,
             tile: 4,
             first_row: 0,
             photons: 50_000,
@@ -239,6 +245,8 @@ fn the_photon_scenes_match_their_committed_photon_references() {
         },
         PhotonCase {
             name: "volumetric-caustic",
+            integrator: Integrator::Hybrid,
+            made_by: Integrator::Hybrid,
             tile: 8,
             first_row: 8,
             photons: 50_000,
@@ -248,6 +256,8 @@ fn the_photon_scenes_match_their_committed_photon_references() {
         },
         PhotonCase {
             name: "dense-fog",
+            integrator: Integrator::Hybrid,
+            made_by: Integrator::Hybrid,
             tile: 8,
             first_row: 0,
             photons: 2_000,
@@ -257,26 +267,52 @@ fn the_photon_scenes_match_their_committed_photon_references() {
         },
     ];
     assert_eq!(cases.each_ref().map(|c| c.name), PHOTON_REFERENCES, "keep the lists in step");
-    // (what, differences over seeds, allowance, factor): every tile, and each scene's whole-image
-    // mean of each channel (the pooled test, which sees a uniform shift no tile shows).
-    let mut tiles: Vec<(String, Vec<f64>, f64, f64)> = Vec::new();
-    for case in &cases {
+    judge(&cases.iter().flat_map(|case| seed_tiles(case, seeds)).collect::<Vec<_>>(), seeds);
+}
+
+/// What [`seed_tiles`] compares: (what, differences over seeds, allowance, factor on the
+/// spread, variance of the reference's value).
+type SeedTile = (String, Vec<f64>, f64, f64, f64);
+
+/// Renders `case` with `seeds` seeds and returns its tiles' and channel means' differences from
+/// the reference (see [`the_photon_scenes_match_their_committed_photon_references`]).
+fn seed_tiles(case: &PhotonCase, seeds: u64) -> Vec<SeedTile> {
+    use haze::lab::tiles::tile_means;
+    let mut tiles = Vec::new();
+    {
         let (name, tile) = (case.name, case.tile);
         let path =
             Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/references/{name}.exr"));
         let reference = Reference::load(&path).unwrap();
-        assert_eq!(reference.made_by.map(|m| m.0), Some(Integrator::Hybrid), "{name}");
+        assert_eq!(reference.made_by.map(|m| m.0), Some(case.made_by), "{name}");
         let (w, h) = (reference.width, reference.height);
         let mut scene = Scene::load(scene_path(&format!("{name}.toml"))).unwrap();
         scene.set_resolution([w, h]).unwrap();
-        let factor = (1.0 + (seeds * ITERATIONS) as f64 / case.reference_iterations as f64).sqrt();
-        let ref_bias = tile_means(w, h, reference.bias_layer.as_deref().unwrap(), tile);
+        let photon_reference = case.made_by != Integrator::Path;
+        let factor = if photon_reference {
+            (1.0 + (seeds * ITERATIONS) as f64 / case.reference_iterations as f64).sqrt()
+        } else {
+            1.0
+        };
+        let zero = vec![[0.0f32; 3]; (w * h) as usize];
+        let ref_bias_layer = reference.bias_layer.as_deref().unwrap_or(&zero);
+        let ref_bias = tile_means(w, h, ref_bias_layer, tile);
         let from = (case.first_row * w) as usize;
-        let ref_channel_bias = channel_means(&reference.bias_layer.as_deref().unwrap()[from..]);
+        let ref_channel_bias = channel_means(&ref_bias_layer[from..]);
+        // A path-traced reference's own noise, per tile mean and channel mean: its pixels are
+        // independent, and a tile's channels are at most perfectly correlated (so the variance of
+        // their mean is at most the mean of their variances).
+        let ref_var = |pixels: usize, mean_var: f64| {
+            if photon_reference { 0.0 } else { mean_var / pixels as f64 }
+        };
+        let variance = reference.variance_layer.as_deref().unwrap_or(&zero);
+        let tile_var = tile_means(w, h, variance, tile);
+        let channel_var = channel_means(&variance[from..]);
         let (mut diffs, mut biases) = (Vec::new(), Vec::new());
         let (mut channel_diffs, mut channel_biases) = (Vec::new(), Vec::new());
         for seed in 1..=seeds {
             let mut s = RenderSettings {
+                integrator: case.integrator,
                 iterations: Some(ITERATIONS),
                 photons: case.photons,
                 seed,
@@ -291,9 +327,10 @@ fn the_photon_scenes_match_their_committed_photon_references() {
                 .map(|(a, b)| [0, 1, 2].map(|c| a[c] - b[c]))
                 .collect();
             diffs.push(tile_means(w, h, &d, tile));
-            biases.push(tile_means(w, h, image.bias.as_deref().unwrap(), tile));
+            let bias = image.bias.as_deref().unwrap_or(&zero);
+            biases.push(tile_means(w, h, bias, tile));
             channel_diffs.push(channel_means(&d[from..]));
-            channel_biases.push(channel_means(&image.bias.as_deref().unwrap()[from..]));
+            channel_biases.push(channel_means(&bias[from..]));
         }
         for c in 0..3 {
             let d: Vec<f64> = channel_diffs.iter().map(|m| m[c]).collect();
@@ -304,7 +341,8 @@ fn the_photon_scenes_match_their_committed_photon_references() {
                 0.0
             };
             let what = format!("{name} whole-image mean of channel {}", ["R", "G", "B"][c]);
-            tiles.push((what, d, allowance, factor));
+            let pixels = (w * h) as usize - from;
+            tiles.push((what, d, allowance, factor, ref_var(pixels, channel_var[c])));
         }
         let across = w.div_ceil(tile);
         for (k, &rb) in ref_bias.iter().enumerate() {
@@ -319,16 +357,25 @@ fn the_photon_scenes_match_their_committed_photon_references() {
             } else {
                 0.0
             };
-            tiles.push((format!("{name} tile ({x0}, {y0})"), d, allowance, factor));
+            let pixels = (tile.min(w - x0) * tile.min(h - y0)) as usize;
+            let v = ref_var(pixels, tile_var[k]);
+            tiles.push((format!("{name} tile ({x0}, {y0})"), d, allowance, factor, v));
         }
     }
+    tiles
+}
+
+/// The t-test of [`the_photon_scenes_match_their_committed_photon_references`] over `tiles`
+/// (from `seeds` seeds): at the suite's significance over all of them (Šidák).
+fn judge(tiles: &[SeedTile], seeds: u64) {
+    use statrs::distribution::{ContinuousCDF, StudentsT};
     let per_tile = 1.0 - (1.0 - SIGNIFICANCE).powf(1.0 / tiles.len() as f64);
     let t = StudentsT::new(0.0, 1.0, (seeds - 1) as f64).unwrap().inverse_cdf(1.0 - per_tile / 2.0);
     let mut worst = (0.0f64, String::new());
     let mut failed = Vec::new();
-    for (what, d, allowance, factor) in &tiles {
+    for (what, d, allowance, factor, ref_var) in tiles {
         let (mean, se) = mean_and_se(d);
-        let se = se * factor;
+        let se = (se * se * factor * factor + ref_var).sqrt();
         let z = ((mean.abs() - allowance).max(0.0)) / se;
         let line = format!(
             "{what}: difference {mean:+.4e} ± {se:.4e}, allowance {allowance:.3e}, z {z:.2}"
@@ -358,4 +405,29 @@ fn dense_fog_radii(s: &mut RenderSettings) {
     s.alpha = 0.9999;
     s.volume_alpha = 0.9999;
     s.volume_radius_fraction = 0.1;
+}
+
+/// The combined integrator (eye paths, next-event estimation and photon merges weighed by MIS)
+/// against the committed path-traced references, as the photon scenes are compared: eight renders
+/// of 64 iterations (seeds 1–8) at 1/16 size, tile by tile and by each channel's whole-image mean
+/// through the spread over the seeds, with the reference's own noise from its variance layer, and
+/// each tile allowed its stated kernel bias (1.707 |B̂|). A scene with an area light and a
+/// homogeneous fog, a grid cloud under the sun, and a spot light in fog: every kind of light and
+/// medium the weights treat differently. 20,000 light paths per iteration.
+#[test]
+fn the_combined_integrator_matches_the_path_traced_references() {
+    let seeds = 8u64;
+    let case = |name| PhotonCase {
+        name,
+        integrator: Integrator::Combined,
+        made_by: Integrator::Path,
+        tile: 4,
+        first_row: 0,
+        photons: 20_000,
+        reference_iterations: 8192,
+        overrides: |_| {},
+        bias_allowance: true,
+    };
+    let cases = ["cornell-fog", "vdb-cloud", "spotlight-fog"].map(case);
+    judge(&cases.iter().flat_map(|case| seed_tiles(case, seeds)).collect::<Vec<_>>(), seeds);
 }

@@ -18,9 +18,9 @@ fn quick_validation_passes_every_case() {
     let rows =
         haze::lab::validate::run(&media, haze::lab::validate::Effort::QUICK, None, |_, _| {})
             .unwrap();
-    // 20 cases × 5 methods, but the 5 single-scattering cases run the hybrid once ("hybrid
+    // 20 cases × 6 methods, but the 5 single-scattering cases run the hybrid once ("hybrid
     // (next-event only)": its volume estimates take no part there).
-    assert_eq!(rows.len(), 95);
+    assert_eq!(rows.len(), 115);
     let failed: Vec<String> = rows
         .iter()
         .filter(|r| !r.pass())
@@ -33,7 +33,7 @@ fn quick_validation_passes_every_case() {
         .collect();
     assert!(failed.is_empty(), "{}", failed.join("\n"));
     assert!(haze::lab::validate::markdown(&rows).contains("| pass |"));
-    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 96);
+    assert_eq!(haze::lab::validate::csv(&rows).lines().count(), 116);
 
     // The cases behind two fixed defects are there (and passed above):
     // - a grazing view of the half-space with a small beam radius from two camera distances,
@@ -49,11 +49,11 @@ fn quick_validation_passes_every_case() {
     assert_eq!(grazing.len(), 2, "the grazing half-space at two camera distances");
     let slab: Vec<_> =
         rows.iter().filter(|r| r.case.starts_with("slab single scattering")).collect();
-    assert_eq!(slab.len(), 4, "single scattering in a slab with every method");
+    assert_eq!(slab.len(), 5, "single scattering in a slab with every method");
     // Emitting media: both slabs and the furnace with both medium kinds and an albedo grid,
     // every method.
     let emitting: Vec<_> = rows.iter().filter(|r| r.case.starts_with("emitting")).collect();
-    assert_eq!(emitting.len(), 25, "emitting media with every method and both medium kinds");
+    assert_eq!(emitting.len(), 30, "emitting media with every method and both medium kinds");
     for r in slab.iter().chain(&grazing) {
         assert!(r.mean > 0.5 * r.reference, "{} / {}: {}", r.case, r.method, r.mean);
     }

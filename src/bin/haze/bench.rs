@@ -233,6 +233,9 @@ fn report(
     }
     let what = match (settings.integrator, media) {
         (Integrator::Path, _) => "path tracing".to_string(),
+        (Integrator::Combined, _) => {
+            "eye paths with next-event estimation and surface, point and beam merges".to_string()
+        }
         (_, true) => format!("trace + surface and {estimate} estimates"),
         (_, false) => "trace + surface estimate".to_string(),
     };

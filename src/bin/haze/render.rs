@@ -272,7 +272,7 @@ fn summary(
     let i = &part.info;
     let interrupted = interrupted_by.map(|n| format!(" (interrupted by {n})")).unwrap_or_default();
     let work = match i.settings.integrator {
-        Integrator::PhotonMapping | Integrator::Hybrid => {
+        Integrator::PhotonMapping | Integrator::Hybrid | Integrator::Combined => {
             format!("{} light paths, final radius {:.5}", i.light_paths, i.radius)
         }
         Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),

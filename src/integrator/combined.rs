@@ -1,0 +1,581 @@
+//! The combined estimator: eye paths, next-event estimation and photon merging on surfaces, at
+//! points and along beams in media, weighed against each other by multiple importance sampling
+//! (the technique set of UPBP, Křivánek et al. 2014, without vertex connections and photon
+//! beams; weights in `estimate/mis.rs`, derived in docs/theory.md).
+//!
+//! Each iteration is one render of the probabilistic schedule: a photon pass at the iteration's
+//! radii, whose light paths record at every photon the light's side of the weights; then one
+//! eye path per pixel that goes on through media and surfaces as the path tracer's does
+//! (`path.rs`), and at every vertex
+//!
+//! - along a segment in a medium gathers the volume photons near it (the beam radiance estimate,
+//!   point–beam) and, at the collision it samples, those within the volume radius (point–point);
+//! - on a diffuse surface gathers the surface photons within the surface radius;
+//! - connects to a light (next-event estimation), and counts the light it reaches,
+//!
+//! each contribution multiplied by its technique's weight. Emitting media's light is gathered by
+//! the eye paths alone, in full (the photon pass emits from lights only).
+
+use super::frame::{Frame, StepTimes};
+use super::path::roulette;
+use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
+use crate::accel::Hit;
+use crate::estimate::Estimate;
+use crate::estimate::mis::weight;
+use crate::estimate::mis::{Kernels, Site, eye_carry, hit_weight, merge_total, nee_weight};
+use crate::estimate::surface::{Gather, NORMAL_COS};
+use crate::math::{Rgb, offset_origin};
+use crate::medium::phase::HenyeyGreenstein;
+use crate::medium::{BEAM_SEGMENT_RATE, Medium, SegmentTransmittance, TransmittanceDistance};
+use crate::photon::beam::{BeamMap, Thinning};
+use crate::photon::map::PhotonGrid;
+use crate::photon::trace::{PhotonPass, Photons, emitted, trace_photons};
+use crate::photon::{BounceRange, Photon, VolumePhoton};
+use crate::plan::{Plan, Radii};
+use crate::scene::Scene;
+use crate::scene::light::{LightSampler, Receiver};
+use crate::scene::material::{Material, Transport};
+use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
+use std::sync::atomic::{AtomicBool, AtomicU64};
+use std::time::Instant;
+
+/// The combined estimator's plan and buffers, kept between iterations.
+pub(crate) struct Combined {
+    plan: Plan,
+    lights: LightSampler,
+    photons: Photons,
+    surface_map: PhotonGrid<Photon>,
+    volume_points: PhotonGrid<VolumePhoton>,
+    volume_beams: BeamMap,
+}
+
+impl Combined {
+    pub(crate) fn new(scene: &Scene, plan: &Plan) -> Self {
+        let mut c = Self {
+            plan: plan.clone(),
+            lights: LightSampler::new(&scene.lights, scene.shapes.len()),
+            photons: Photons::default(),
+            surface_map: PhotonGrid::default(),
+            volume_points: PhotonGrid::default(),
+            volume_beams: BeamMap::new(),
+        };
+        // Each gathered photon's weight record is found by its index in the photon pass.
+        c.surface_map.set_tracking(true);
+        c.volume_points.set_tracking(true);
+        c.volume_beams.set_tracking(true);
+        c
+    }
+
+    /// Light paths per iteration.
+    pub(crate) fn paths(&self) -> u64 {
+        self.plan.paths
+    }
+
+    /// The schedule's radii at iteration `i`.
+    pub(crate) fn radii(&self, i: u64) -> Radii {
+        self.plan.radii(i)
+    }
+
+    /// Surface and volume photons stored by the last photon pass.
+    pub(crate) fn stored(&self) -> [u64; 2] {
+        [self.photons.surface.len() as u64, self.photons.volume.len() as u64]
+    }
+
+    /// One iteration: photon pass with weight records, the maps at the iteration's radii, and
+    /// the eye paths.
+    pub(crate) fn iterate(
+        &mut self,
+        scene: &Scene,
+        i: u64,
+        stop: &AtomicBool,
+        nonfinite: &AtomicU64,
+        frame: &mut Frame,
+    ) -> Option<StepTimes> {
+        let mut times = StepTimes::default();
+        let radii = self.plan.radii(i);
+        let kernels = Kernels::new(self.plan.paths, radii.surface, radii.volume);
+        let clock = Instant::now();
+        let pass = PhotonPass {
+            seed: self.plan.seed,
+            iteration: i,
+            first_path: 0,
+            paths: self.plan.paths,
+            max_bounces: self.plan.max_bounces,
+            skip_direct: false,
+            media_near: f32::INFINITY,
+            record: false,
+            mis: Some(kernels),
+        };
+        if !trace_photons(scene, &self.lights, None, &pass, stop, &mut self.photons) {
+            return None;
+        }
+        times.photon_trace = super::ppm::lap(clock);
+        let clock = Instant::now();
+        self.surface_map.build(&self.photons.surface, radii.surface as f32);
+        times.surface_map = super::ppm::lap(clock);
+        let clock = Instant::now();
+        self.build_volume_maps(scene, i, radii.volume as f32);
+        times.volume_map = super::ppm::lap(clock);
+        let clock = Instant::now();
+        let ctx = Context {
+            scene,
+            surface: &self.surface_map,
+            points: &self.volume_points,
+            beams: &self.volume_beams,
+            photons: &self.photons,
+            lights: &self.lights,
+            kernels,
+            gather: Gather { kernel: self.plan.kernel, inv_paths: 1.0 / self.plan.paths as f32 },
+            seed: self.plan.seed,
+            iteration: i,
+            max_bounces: self.plan.max_bounces,
+            beyond_last: self.lights.has_area_lights() || scene.has_emissive_media(),
+        };
+        let width = scene.camera.resolution[0] as usize;
+        if !super::frame::render_rows(frame, width, stop, nonfinite, |x, y| ctx.pixel(x, y)) {
+            return None;
+        }
+        times.camera = super::ppm::lap(clock);
+        Some(times)
+    }
+
+    /// The volume photons for point queries and for beam queries, at radius `r`.
+    fn build_volume_maps(&mut self, scene: &Scene, i: u64, r: f32) {
+        let photons = &self.photons.volume;
+        self.volume_points.build(photons, r);
+        let thinning = self.plan.beam_cell_budget.map(|budget| Thinning {
+            budget,
+            seed: self.plan.seed,
+            iteration: i,
+        });
+        self.volume_beams.build(photons, r, thinning, Some(&scene.camera), |p| {
+            p.beta * scene.media[p.medium as usize].sigma_s(p.p)
+        });
+    }
+}
+
+/// What the eye paths of one iteration read.
+struct Context<'a> {
+    scene: &'a Scene,
+    surface: &'a PhotonGrid<Photon>,
+    points: &'a PhotonGrid<VolumePhoton>,
+    beams: &'a BeamMap,
+    /// The photons' weight records.
+    photons: &'a Photons,
+    lights: &'a LightSampler,
+    kernels: Kernels,
+    gather: Gather,
+    seed: u64,
+    iteration: u64,
+    max_bounces: u32,
+    /// Whether a path goes on after its last event: to reach an area light (whose weight
+    /// assumes the eye can) or an emitting medium.
+    beyond_last: bool,
+}
+
+impl Context<'_> {
+    /// Radiance along the eye path of pixel (x, y), with the kernel bias of its merges.
+    fn pixel(&self, x: u32, y: u32) -> Estimate {
+        let mut eye =
+            CombinedEye { ctx: self, carry: 0.0, from: None, counted: false, bias: Rgb::ZERO };
+        let value =
+            walk_eye(self.scene, self.seed, self.iteration, [x, y], self.max_bounces, &mut eye);
+        Estimate { value, bias: eye.bias }
+    }
+}
+
+/// The combined estimator's eye path.
+struct CombinedEye<'a> {
+    ctx: &'a Context<'a>,
+    /// The eye's carried weight quantity after its last scattering vertex (0 from the camera).
+    carry: f32,
+    /// That vertex, if next-event estimation could connect from it: where it is, and the
+    /// density of the direction the eye left it by.
+    from: Option<(Receiver, f32)>,
+    /// The emitter at the end of the last segment was counted there (in a medium, by its
+    /// expected value over where the path went on): not again when the path reaches it.
+    counted: bool,
+    /// The kernel bias of the path's merges, throughput included.
+    bias: Rgb,
+}
+
+/// How a vertex scatters, for next-event estimation's weight: the scattering value towards a
+/// direction (BSDF·cos or σ_s times the phase function), the eye's density of the direction,
+/// the light's density of the eye's direction given light from it, and the cosine (or σ)
+/// towards it.
+trait Scatterer {
+    fn f(&self, wi: Vec3) -> Rgb;
+    fn p_eye(&self, wi: Vec3) -> f32;
+    fn p_light(&self, wi: Vec3) -> f32;
+    fn gamma(&self, wi: Vec3) -> f32;
+}
+
+/// A diffuse surface seen from `wo`.
+struct AtSurface<'a> {
+    material: &'a Material,
+    wo: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+}
+
+impl Scatterer for AtSurface<'_> {
+    fn f(&self, wi: Vec3) -> Rgb {
+        self.material.eval(self.wo, wi, self.ng, self.ns, Transport::Radiance)
+    }
+    fn p_eye(&self, wi: Vec3) -> f32 {
+        self.material.pdf(self.wo, wi, self.ng, self.ns)
+    }
+    fn p_light(&self, wi: Vec3) -> f32 {
+        self.material.pdf(wi, self.wo, self.ng, self.ns)
+    }
+    fn gamma(&self, wi: Vec3) -> f32 {
+        wi.dot(self.ng).abs()
+    }
+}
+
+/// A collision in a medium, reached along `d`, of scattering coefficient `sigma_s` and mean
+/// extinction `sigma`.
+struct InMedium<'a> {
+    m: &'a Medium,
+    d: Vec3,
+    sigma_s: Rgb,
+    sigma: f32,
+}
+
+impl Scatterer for InMedium<'_> {
+    fn f(&self, wi: Vec3) -> Rgb {
+        self.sigma_s * self.m.phase().eval(-wi, -self.d)
+    }
+    fn p_eye(&self, wi: Vec3) -> f32 {
+        self.m.phase().pdf(self.d, wi)
+    }
+    fn p_light(&self, wi: Vec3) -> f32 {
+        self.m.phase().pdf(-wi, -self.d)
+    }
+    fn gamma(&self, _wi: Vec3) -> f32 {
+        self.sigma
+    }
+}
+
+impl CombinedEye<'_> {
+    /// The photons an estimate at the path's next vertex may gather (as in `camera.rs`).
+    fn bounces(&self, path: &EyePath) -> BounceRange {
+        let room = path.max_bounces.saturating_sub(1 + path.depth);
+        BounceRange { min: 0, max: room.min(u16::MAX as u32) as u16 }
+    }
+
+    /// The radiance `le` of the area light the path reached at `hit`, weighed against
+    /// next-event estimation from the vertex before and the merges.
+    fn emission_weighted(&self, path: &EyePath, hit: &Hit, le: Rgb) -> Rgb {
+        let ctx = self.ctx;
+        let Some((li, _)) = ctx.lights.area_light(hit.tag) else { return le };
+        let wo = -path.ray.d;
+        let e = emitted(ctx.lights.emission_prob(li), &ctx.scene.lights[li], hit.ng, wo);
+        let nee = self.from.as_ref().map_or(0.0, |(r, p_eye)| {
+            ctx.lights.pdf_li(&ctx.scene.lights, hit.tag, r, hit.p, e.cos) / p_eye
+        });
+        le * hit_weight(nee, e, self.carry)
+    }
+
+    /// Whether to gather at a vertex where no merge can weigh more than `bound`: always if
+    /// `bound` ≥ [`MERGE_ROULETTE`], else with probability `bound / MERGE_ROULETTE` (Russian
+    /// roulette on the merge, unbiased): `Some(factor)` to gather, its contribution multiplied
+    /// by `factor`. Deep in an eye path the photons' side of a vertex is far better sampled
+    /// than the eye's, the merges' weights there are small, and the gathers cost most of a
+    /// path's time.
+    fn gather_chance(&self, path: &mut EyePath, bound: f32) -> Option<f32> {
+        if bound >= MERGE_ROULETTE {
+            return Some(1.0);
+        }
+        let q = bound / MERGE_ROULETTE;
+        (path.s.next_f32() < q).then(|| 1.0 / q)
+    }
+
+    /// Adds a merge, weighted by the path's throughput.
+    fn add(&mut self, path: &mut EyePath, e: Estimate) {
+        path.l += path.beta * e.value;
+        self.bias += path.beta * e.bias;
+    }
+
+    /// Point–beam: the volume photons along the segment o + t d, 0 < t < `t_max`, in medium
+    /// `id`, each weighed against the other techniques.
+    fn beam(
+        &mut self,
+        path: &mut EyePath,
+        m: &Medium,
+        id: u32,
+        t_max: f32,
+        tr: &SegmentTransmittance,
+    ) {
+        let ctx = self.ctx;
+        if ctx.beams.len() == 0 {
+            return;
+        }
+        let (o, d) = (path.ray.o, path.ray.d);
+        let (phase, bounces, carry) = (m.phase(), self.bounces(path), self.carry);
+        // The eye's side is at least p_min · carry / σ: the beam weighs at most this.
+        let kb = ctx.kernels.beam;
+        let Some(chance) = self.gather_chance(path, kb / (kb + min_phase(phase) * carry)) else {
+            return;
+        };
+        let radius = ctx.beams.radius();
+        let inv_r2 = 1.0 / (radius * radius);
+        let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
+        ctx.beams.query_slots(o, d, t_max, |ph, slot, t, d2| {
+            if ph.medium as u32 != id || !bounces.contains(ph.bounces) {
+                return;
+            }
+            let rec = &ctx.photons.volume_mis[ctx.beams.origin(slot)];
+            let (kp, kb) = ctx.kernels.medium(rec.sigma);
+            // The phase function towards the eye; the eye's density of the photon's direction
+            // and the photon's of the eye's are the same value (a symmetric phase function
+            // sampled exactly).
+            let v = phase.eval(ph.d, -d);
+            let total = merge_total(rec.light, v, kp + kb, carry, v, rec.sigma);
+            // The beam map stores β·σ_s.
+            let f = ph.beta * tr.at(t) * (v * weight(kb, total));
+            let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 2);
+            sum += f * k;
+            inner += f * k_inner;
+        });
+        let norm = inv_r2 * ctx.gather.inv_paths * chance;
+        self.add(path, Estimate::from_radii(sum * norm, inner * norm));
+    }
+
+    /// Where the path goes on from the segment o + t d, 0 < t < `t_max`, in `m`, of
+    /// transmittance `tr`: a collision at `Some(t)`, or the surface at the segment's end
+    /// (`None`), the throughput updated. In a grid, by free flight (a collision with
+    /// probability 1 − T, at a distance drawn ∝ σ_t T). In a homogeneous medium, a collision
+    /// with probability P = (1 − T)² only, at a distance drawn ∝ T on the segment (the
+    /// throughput times T(t) / (p(t) P)), or else the surface (times T / (1 − P)): unbiased for
+    /// any P, whereas free flight, P = 1 − T, leaves every surface behind a thin medium with the
+    /// variance of a coin toss, though the light the medium scatters on the way is mostly the
+    /// beam's whatever the path does. (In a grid, distances ∝ T land in its empty space.)
+    fn collide(
+        &self,
+        path: &mut EyePath,
+        m: &Medium,
+        tr: &SegmentTransmittance,
+        t_max: f32,
+    ) -> Option<f32> {
+        if let SegmentTransmittance::Steps(_) = tr {
+            let (o, d) = (path.ray.o, path.ray.d);
+            let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
+            path.beta *= flight.weight;
+            return flight.scattered.then_some(flight.t);
+        }
+        let end = tr.at(t_max);
+        let p = (1.0 - crate::math::luminance(end)).clamp(0.0, 1.0).powi(2);
+        if path.s.next_f32() >= p {
+            path.beta *= end / (1.0 - p);
+            return None;
+        }
+        let Some(along) = TransmittanceDistance::new(tr, 0.0, t_max) else {
+            path.beta = Rgb::ZERO;
+            return None;
+        };
+        let (t, pdf) = along.sample(path.s.next_f32());
+        path.beta *= tr.at(t) / (pdf * p);
+        Some(t)
+    }
+
+    /// Point–point: the volume photons within the volume radius of the collision `at`.
+    fn points(&mut self, path: &mut EyePath, id: u32, x: Vec3, at: &InMedium) {
+        let ctx = self.ctx;
+        let (phase, bounces, carry, d) = (at.m.phase(), self.bounces(path), self.carry, at.d);
+        let kp = ctx.kernels.point;
+        let bound = kp / (kp + min_phase(phase) * carry / at.sigma);
+        let Some(chance) = self.gather_chance(path, bound) else { return };
+        let radius = ctx.points.radius();
+        let inv_r2 = 1.0 / (radius * radius);
+        let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
+        ctx.points.query_slots(x, radius, |ph, slot, d2| {
+            if ph.medium as u32 != id || !bounces.contains(ph.bounces) {
+                return;
+            }
+            let rec = &ctx.photons.volume_mis[ctx.points.origin(slot)];
+            let (kp, kb) = ctx.kernels.medium(rec.sigma);
+            // As in `beam`: one value of the phase function is all three densities.
+            let v = phase.eval(ph.d, -d);
+            let total = merge_total(rec.light, v, kp + kb, carry, v, at.sigma);
+            let f = ph.beta * (v * weight(kp, total));
+            let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 3);
+            sum += f * k;
+            inner += f * k_inner;
+        });
+        let norm = inv_r2 / radius * ctx.gather.inv_paths * chance;
+        self.add(path, at.sigma_s * Estimate::from_radii(sum * norm, inner * norm));
+    }
+
+    /// Surface merging at the diffuse point `p` (normal `n` on the eye's side), the eye arriving
+    /// with cosine `gamma_in`.
+    fn surface(&mut self, path: &mut EyePath, p: Vec3, n: Vec3, at: &AtSurface, gamma_in: f32) {
+        let ctx = self.ctx;
+        let (bounces, carry, ks) = (self.bounces(path), self.carry, ctx.kernels.surface);
+        // On a diffuse surface the eye's side is exactly carry / π (the cosines cancel).
+        let Some(chance) = self.gather_chance(path, ks / (ks + carry * FRAC_1_PI)) else {
+            return;
+        };
+        // The light's density of the eye's direction over the eye's cosine: 1/π (the same for
+        // every photon on the eye's side of the surface).
+        let eye_side = at.p_light(n) / gamma_in;
+        let radius = ctx.surface.radius();
+        let inv_r2 = 1.0 / (radius * radius);
+        let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
+        ctx.surface.query_slots(p, radius, |ph, slot, d2| {
+            if ph.n.dot(n) <= NORMAL_COS || !bounces.contains(ph.bounces) {
+                return;
+            }
+            let rec = &ctx.photons.surface_mis[ctx.surface.origin(slot)];
+            let total = merge_total(rec.light, at.p_eye(rec.wi), ks, carry, eye_side, 1.0);
+            let w = weight(ks, total);
+            let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 2);
+            sum += ph.beta * (k * w);
+            inner += ph.beta * (k_inner * w);
+        });
+        let norm = inv_r2 * ctx.gather.inv_paths * chance;
+        let f = at.material.diffuse_f();
+        self.add(path, f * Estimate::from_radii(sum * norm, inner * norm));
+    }
+
+    /// Next-event estimation from the eye's vertex at `r` (`r_mis`: the same point without the
+    /// ray offset, as the light paths see it), in `medium`, where the merges are `c` and the eye
+    /// arrived with cosine (or σ) `gamma_in`; weighed against the other techniques.
+    #[allow(clippy::too_many_arguments)]
+    fn nee(
+        &self,
+        path: &mut EyePath,
+        r: &Receiver,
+        r_mis: &Receiver,
+        medium: Option<u32>,
+        c: f32,
+        gamma_in: f32,
+        at: &impl Scatterer,
+    ) -> Rgb {
+        let (ctx, s) = (self.ctx, &mut path.s);
+        let Some((li, p_pick)) = ctx.lights.pick(r, s.next_f32()) else { return Rgb::ZERO };
+        let light = &ctx.scene.lights[li];
+        let point = light.sample_point(s);
+        let ls = match &point {
+            Some(pt) => light.li_from(r.p, pt),
+            None => light.sample_li(r.p, s),
+        };
+        let Some(ls) = ls else { return Rgb::ZERO };
+        let f = at.f(ls.wi);
+        if f.max_element() <= 0.0 || ls.value.max_element() <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let n = point.and_then(|pt| pt.n).unwrap_or(Vec3::ZERO);
+        let e = emitted(ctx.lights.emission_prob(li), light, n, -ls.wi);
+        let pdfs = light.pdf_emission(n, -ls.wi);
+        let d2 = point.map_or(1.0 / pdfs.pos, |pt| (pt.p - r_mis.p).length_squared());
+        let nee = ctx.lights.prob(r_mis, li) * pdfs.pos * d2;
+        let hit = if e.cos > 0.0 { at.p_eye(ls.wi) * e.cos / nee } else { 0.0 };
+        let (gamma, p_light) = (at.gamma(ls.wi), at.p_light(ls.wi));
+        let w = nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in);
+        if w <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let tr = super::direct::shadow(ctx.scene, r.p, ls.wi, ls.dist, medium, s);
+        f * ls.value * tr * (w / p_pick)
+    }
+}
+
+/// Merges that can weigh at least this much are always gathered; below, by Russian roulette
+/// ([`CombinedEye::gather_chance`]).
+const MERGE_ROULETTE: f32 = 0.1;
+
+/// The smallest value of a Henyey–Greenstein phase function, (1 − |g|) / (4π (1 + |g|)²).
+fn min_phase(phase: &HenyeyGreenstein) -> f32 {
+    let g = phase.g.abs();
+    (1.0 - g) / (4.0 * std::f32::consts::PI * (1.0 + g) * (1.0 + g))
+}
+
+impl EyeVisitor for CombinedEye<'_> {
+    fn medium(
+        &mut self,
+        path: &mut EyePath,
+        m: &Medium,
+        id: u32,
+        t_max: f32,
+        end: Option<&Hit>,
+    ) -> Next {
+        let (o, d) = (path.ray.o, path.ray.d);
+        // One transmittance estimate per segment, shared by the beam's photons, an emitter at
+        // its end and the choice of where the path goes on.
+        let tr = m.segment(o, d, t_max, BEAM_SEGMENT_RATE, &mut path.s);
+        self.beam(path, m, id, t_max, &tr);
+        if let Some(hit) = end {
+            // The emitter the segment ends on, by its expected value over that choice.
+            if let Some(le) = path.scene.le(hit, -d) {
+                path.l += path.beta * tr.at(t_max) * self.emission_weighted(path, hit, le);
+                self.counted = true;
+            }
+        }
+        let Some(t) = self.collide(path, m, &tr, t_max) else { return Next::Continue };
+        self.counted = false;
+        let x = o + d * t;
+        let at = InMedium { m, d, sigma_s: m.sigma_s(x), sigma: m.mean_sigma_t(x) };
+        self.points(path, id, x, &at);
+        let c = self.ctx.kernels.at(Site::Medium(at.sigma));
+        let r = Receiver::medium(x);
+        let medium = path.ray.medium;
+        let l = self.nee(path, &r, &r, medium, c, at.sigma, &at);
+        path.l += path.beta * l;
+        if path.last() && !self.ctx.beyond_last {
+            return Next::Stop;
+        }
+        let ps = m.phase().sample(d, path.s.next_2d());
+        path.beta *= at.sigma_s * (ps.value / ps.pdf);
+        // The phase function is symmetric: the light's reverse density is the eye's.
+        self.carry = eye_carry(self.carry, c, ps.pdf, at.sigma, at.sigma, ps.pdf);
+        self.from = Some((r, ps.pdf));
+        Next::Scatter { o: x, d: ps.wi }
+    }
+
+    fn emission(&mut self, path: &EyePath, hit: &Hit, le: Rgb) -> Rgb {
+        if std::mem::take(&mut self.counted) {
+            // Counted at the end of the segment in the medium that led here.
+            return Rgb::ZERO;
+        }
+        path.beta * self.emission_weighted(path, hit, le)
+    }
+
+    fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
+        let wo = -path.ray.d;
+        let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+        let gamma_in = wo.dot(n);
+        let at = AtSurface { material, wo, ng: hit.ng, ns: hit.ns };
+        self.surface(path, hit.p, n, &at, gamma_in);
+        let c = self.ctx.kernels.surface;
+        let r = Receiver::surface(offset_origin(hit.p, n, n), n);
+        let r_mis = Receiver::surface(hit.p, n);
+        let medium = path.ray.medium;
+        let l = self.nee(path, &r, &r_mis, medium, c, gamma_in, &at);
+        path.l += path.beta * l;
+        if path.last() && !self.ctx.beyond_last {
+            return Next::Stop;
+        }
+        let u = path.s.next_2d();
+        let Some(bs) = material.sample(wo, hit.ng, hit.ns, u, 0.0, Transport::Radiance) else {
+            return Next::Stop;
+        };
+        path.beta *= bs.weight;
+        let p_rev = at.p_light(bs.wi);
+        self.carry = eye_carry(self.carry, c, p_rev, gamma_in, bs.wi.dot(hit.ng).abs(), bs.pdf);
+        self.from = Some((r_mis, bs.pdf));
+        Next::Scatter { o: r.p, d: bs.wi }
+    }
+
+    fn after_specular(&mut self, path: &mut EyePath, hit: &Hit, wo: Vec3) {
+        // A delta's densities are 1 both ways; nothing merges or connects here.
+        let (gamma_in, gamma_out) = (wo.dot(hit.ng).abs(), path.ray.d.dot(hit.ng).abs());
+        self.carry = eye_carry(self.carry, 0.0, 1.0, gamma_in, gamma_out, 1.0);
+        self.from = None;
+    }
+
+    fn survive(&mut self, path: &mut EyePath) -> bool {
+        roulette(&mut path.beta, path.depth, &mut path.s)
+    }
+}
