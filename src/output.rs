@@ -67,6 +67,9 @@ pub struct Image {
     /// The variance of the bias estimate ([`Film::bias_variance`]), the EXR layer
     /// `bias_variance`; `None` where `variance` is.
     pub bias_variance: Option<Vec<[f32; 3]>>,
+    /// With `techniques` on (the combined integrator): each technique's weighted contribution,
+    /// named, written as the EXR layers `technique_NAME`; they sum to `pixels`.
+    pub techniques: Option<Vec<(String, Vec<[f32; 3]>)>>,
     /// How it was made.
     pub info: RenderInfo,
 }
@@ -99,6 +102,7 @@ impl Image {
             variance: noisy.then(|| film.variance_of_mean()),
             bias: (film.iterations() >= 1).then(|| film.bias()).flatten(),
             bias_variance: noisy.then(|| film.bias_variance()).flatten(),
+            techniques: None,
             info,
         }
     }
@@ -290,6 +294,15 @@ impl Image {
                 "bias_variance",
                 v,
                 Some("estimated variance of the bias layer: the sample variance of the iterations' bias estimates / their count"),
+            ));
+        }
+        let names: Vec<String> =
+            self.techniques.iter().flatten().map(|(name, _)| format!("technique_{name}")).collect();
+        for ((_, data), name) in self.techniques.iter().flatten().zip(&names) {
+            layers.push(layer(
+                name,
+                data,
+                Some("one technique's contribution to the image, weighted by multiple importance sampling (the combined integrator): the technique layers sum to the image"),
             ));
         }
         let bounds = exr::math::Vec2(size.0, size.1);

@@ -37,6 +37,9 @@ pub struct Partial {
     /// The image file the render that made this partial was writing, if any (the command line
     /// records it, so that a resume continues the same files unless told otherwise).
     pub output: Option<PathBuf>,
+    /// With `techniques` on (the combined integrator): each technique's weighted contribution,
+    /// named. Held in memory only: not written to partial files, and dropped by a merge.
+    pub techniques: Option<Vec<(String, Vec<[f32; 3]>)>>,
 }
 
 /// Bytes before the header: magic, version and the header's length.
@@ -101,7 +104,9 @@ impl Partial {
 
     /// The image of the range: the mean of its iterations.
     pub fn image(&self) -> Image {
-        Image::from_film(&self.film, self.info.clone())
+        let mut image = Image::from_film(&self.film, self.info.clone());
+        image.techniques = self.techniques.clone();
+        image
     }
 
     /// Checks that `other` is a piece of the same render: same scene fingerprint, image size and
@@ -191,8 +196,12 @@ impl Partial {
         if !problems.is_empty() {
             return Err(problems.join("; "));
         }
+        let several = parts.len() > 1;
         let mut it = parts.into_iter();
         let mut out = it.next().expect("non-empty");
+        if several {
+            out.techniques = None;
+        }
         for p in it {
             out.film.merge(&p.film);
             let (i, j) = (&mut out.info, &p.info);
@@ -352,7 +361,7 @@ impl Partial {
         );
         let output = h.t.get("output").and_then(|v| v.as_str()).map(PathBuf::from);
         let state = (!state.is_empty()).then_some(state);
-        let part = Partial { info, film, fingerprint, state, output };
+        let part = Partial { info, film, fingerprint, state, output, techniques: None };
         if part.checksum(&header, part.state.as_deref().unwrap_or(&[])) != stored {
             return Err(err("checksum mismatch: the file is corrupt".into()));
         }

@@ -89,6 +89,8 @@ pub(crate) struct Plan {
     pub surface: Schedule,
     /// … and the volume schedule, for both volume estimates.
     pub volume: Schedule,
+    /// Keep each technique's contribution (the combined integrator).
+    pub techniques: bool,
 }
 
 impl Plan {
@@ -130,6 +132,11 @@ impl Plan {
                 "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")".into(),
             ));
         }
+        if settings.techniques && method != MethodKind::Combined {
+            return Err(Error::Settings(
+                "techniques: only the combined integrator (integrator = \"combined\") weighs techniques against each other".into(),
+            ));
+        }
         let hybrid = settings.integrator == Integrator::Hybrid;
         Ok(Self {
             method,
@@ -152,6 +159,7 @@ impl Plan {
                 && !scene.has_emissive_media(),
             surface,
             volume,
+            techniques: settings.techniques,
         })
     }
 

@@ -56,6 +56,7 @@ impl Status<'_> {
             fingerprint: self.fingerprint,
             state: self.method.save_state(),
             output: None,
+            techniques: None,
         }
     }
 }

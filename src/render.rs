@@ -158,7 +158,8 @@ pub fn render_partial(
         }
     });
     let info = info(&method, iteration, &nonfinite);
-    Ok(Partial { info, film, fingerprint, state: method.save_state(), output: None })
+    let (state, techniques) = (method.save_state(), method.technique_layers());
+    Ok(Partial { info, film, fingerprint, state, output: None, techniques })
 }
 
 /// Refuses a render that would need more memory per iteration than the machine has (the
@@ -190,6 +191,13 @@ fn starting_film(
     let [width, height] = scene.camera.resolution;
     Ok(match start {
         Start::At(0) => return Err(Error::Settings("iterations are numbered from 1".into())),
+        Start::At(2..) | Start::Resume(_) if settings.techniques => {
+            return Err(Error::Settings(
+                "techniques: the technique layers are kept by a render in one process only; \
+                 render the whole image at once (no range, no resume)"
+                    .into(),
+            ));
+        }
         Start::At(a) => {
             if a > 1 && settings.progression == Progression::Original {
                 return Err(Error::Settings(

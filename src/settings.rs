@@ -453,6 +453,13 @@ render_settings! {
     /// wins on the walls and loses near the fire; docs/theory.md).
     [long, value_name = "D"]
     emission_nee_distance: f64, optional = None, length;
+
+    /// With the combined integrator, also write what each technique contributes, weighted, as
+    /// EXR layers that sum to the image (`technique_hit`, `technique_nee`, `technique_surface`,
+    /// `technique_point`, `technique_beam`, and `technique_emitted` for emitting media). Kept by
+    /// a render in one process only: a range or a resumed render refuses it.
+    [long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true"]
+    techniques: bool = false, any;
 }
 
 /// A rejected setting: the key (as in the scene file) and the reason.

@@ -41,18 +41,30 @@ pub(crate) struct Kernels {
     pub point: f32,
     /// N_L π r_v².
     pub beam: f32,
+    /// Merges at every eye vertex (UPBP's set), or only at an eye path's first vertex that is
+    /// not specular (and along its segments up to there).
+    pub deep: bool,
 }
 
 impl Kernels {
     /// The constants for `paths` light paths at the surface and volume radii `rs` and `rv`.
-    pub(crate) fn new(paths: u64, rs: f64, rv: f64) -> Self {
+    pub(crate) fn new(paths: u64, rs: f64, rv: f64, deep: bool) -> Self {
         let n = paths as f64;
         let pi = std::f64::consts::PI;
         Self {
             surface: (n * pi * rs * rs) as f32,
             point: (n * 4.0 / 3.0 * pi * rv * rv * rv) as f32,
             beam: (n * pi * rv * rv) as f32,
+            deep,
         }
+    }
+
+    /// The merges at a vertex of a light path, as the eye paths that could merge there see
+    /// them: [`Self::at`] with merges at every eye vertex; none with merges at the first only
+    /// (every light vertex before the one an eye path merges at lies deeper in that eye path).
+    #[inline]
+    pub(crate) fn at_light(&self, site: Site) -> f32 {
+        if self.deep { self.at(site) } else { 0.0 }
     }
 
     /// The point and the beam technique at a medium vertex of mean extinction `sigma`, relative
@@ -318,7 +330,7 @@ mod tests {
             // p^N₀ = nee / d², area measure.
             out.push(("nee", 0, p.nee as f64 / p.d2[0] * eye_from(1)));
         }
-        for j in 1..n {
+        for j in (1..n).filter(|&j| merges_at(p, k, j)) {
             let both = light_to(j) * eye_from(j);
             match vx(j).site {
                 Site::Surface => out.push(("surface", j, k.surface as f64 * both)),
@@ -330,6 +342,13 @@ mod tests {
             }
         }
         out
+    }
+
+    /// Whether the eye path merges at x_j: everywhere, or at its first vertex from the camera
+    /// that is not specular only.
+    fn merges_at(p: &Path, k: &Kernels, j: usize) -> bool {
+        let first = (1..=p.v.len()).rev().find(|&i| p.v[i - 1].site != Site::Specular);
+        k.deep || first == Some(j)
     }
 
     /// The weights of the same techniques by the carried quantities, as the renderer computes
@@ -345,33 +364,34 @@ mod tests {
                 LightMis::first(p.e, if nee_ok(1) { p.nee } else { 0.0 }, vx(1).g_prev)
             } else {
                 let a = vx(i - 1);
-                let c = k.at(a.site);
+                let c = k.at_light(a.site);
                 LightMis::arrive(light[i - 1].carry(c, a.p_eye, a.g_next, a.p_light), vx(i).g_prev)
             };
         }
         // The eye's carry arriving at x_i: carry[i] (from the camera: 0 at x_{n−1}).
+        // The merges at x_i as the eye path sees them.
+        let c_at = |i: usize| if merges_at(p, k, i) { k.at(vx(i).site) } else { 0.0 };
         let mut carry = vec![0.0f32; n + 1];
         for i in (1..n - 1).rev() {
             let b = vx(i + 1);
-            carry[i] =
-                eye_carry(carry[i + 1], k.at(b.site), b.p_light, b.g_next, b.g_prev, b.p_eye);
+            carry[i] = eye_carry(carry[i + 1], c_at(i + 1), b.p_light, b.g_next, b.g_prev, b.p_eye);
         }
         let mut out = Vec::new();
         if p.e.cos > 0.0 {
             // The eye reached x₀ from x₁ (its carry after x₁).
             let a = vx(1);
-            let after = eye_carry(carry[1], k.at(a.site), a.p_light, a.g_next, a.g_prev, a.p_eye);
+            let after = eye_carry(carry[1], c_at(1), a.p_light, a.g_next, a.g_prev, a.p_eye);
             let nee = if nee_ok(1) { p.nee / (p.e.cos * a.p_eye) } else { 0.0 };
             out.push(("hit", 0, hit_weight(nee, p.e, after) as f64));
         }
         if nee_ok(1) {
             let a = vx(1);
             let hit = if p.e.cos > 0.0 { a.p_eye * p.e.cos / p.nee } else { 0.0 };
-            let c = k.at(a.site);
+            let c = c_at(1);
             let w = nee_weight(hit, p.e, p.nee, c, a.g_prev, a.p_light, carry[1], a.g_next);
             out.push(("nee", 0, w as f64));
         }
-        for j in 1..n {
+        for j in (1..n).filter(|&j| merges_at(p, k, j)) {
             let a = vx(j);
             let c = k.at(a.site);
             let total = merge_total(light[j], a.p_eye, c, carry[j], a.p_light, a.g_next);
@@ -388,7 +408,8 @@ mod tests {
         out
     }
 
-    /// For random paths of every length, kind of vertex and light, the weights the carried
+    /// For random paths of every length, kind of vertex and light, and both sets of merges (at
+    /// every eye vertex, or at the first that is not specular), the weights the carried
     /// quantities give each technique equal its density over the sum of all techniques'
     /// densities (computed by definition), and so sum to one. A wrong density in any technique
     /// (a missing cosine, a reversed direction, a beam without its 1/σ) changes its weight and
@@ -403,6 +424,8 @@ mod tests {
                 surface: 0.02 + s.next_f32(),
                 point: 0.01 + s.next_f32(),
                 beam: 0.05 + s.next_f32(),
+                // Both technique sets: merges everywhere (UPBP's) and at the first vertex.
+                deep: trial % 2 == 0,
             };
             let exact = densities(&p, &kernels);
             let total: f64 = exact.iter().map(|t| t.2).sum();

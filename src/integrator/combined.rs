@@ -48,7 +48,32 @@ pub(crate) struct Combined {
     surface_map: PhotonGrid<Photon>,
     volume_points: PhotonGrid<VolumePhoton>,
     volume_beams: BeamMap,
+    /// With `Plan::techniques`: each technique's contribution so far.
+    layers: Layers,
 }
+
+/// Each technique's contribution, summed over the iterations, per pixel ([`TECHNIQUES`]
+/// layers in turn), and the iterations summed.
+#[derive(Default)]
+struct Layers {
+    sums: Vec<[f64; 3]>,
+    iterations: u64,
+}
+
+/// The techniques whose contributions `--techniques` writes, in the order of the layers; the
+/// last, `emitted`, is the light of emitting media that the eye paths gather along their
+/// segments (every pixel's value less the weighted techniques, so that the layers sum to it).
+pub(crate) const TECHNIQUES: [&str; 6] = ["hit", "nee", "surface", "point", "beam", "emitted"];
+
+/// Indices of the weighted techniques in a path's tally ([`CombinedEye::tally`]).
+const HIT: usize = 0;
+const NEE: usize = 1;
+const SURFACE: usize = 2;
+const POINT: usize = 3;
+const BEAM: usize = 4;
+
+/// One path's contribution by weighted technique.
+type Tally = [Rgb; 5];
 
 impl Combined {
     pub(crate) fn new(scene: &Scene, plan: &Plan) -> Self {
@@ -59,6 +84,7 @@ impl Combined {
             surface_map: PhotonGrid::default(),
             volume_points: PhotonGrid::default(),
             volume_beams: BeamMap::new(),
+            layers: Layers::default(),
         };
         // Each gathered photon's weight record is found by its index in the photon pass.
         c.surface_map.set_tracking(true);
@@ -94,7 +120,7 @@ impl Combined {
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
         let radii = self.plan.radii(i);
-        let kernels = Kernels::new(self.plan.paths, radii.surface, radii.volume);
+        let kernels = Kernels::new(self.plan.paths, radii.surface, radii.volume, MERGE_EVERYWHERE);
         let clock = Instant::now();
         let pass = PhotonPass {
             seed: self.plan.seed,
@@ -132,12 +158,27 @@ impl Combined {
             max_bounces: self.plan.max_bounces,
             beyond_last: self.lights.has_area_lights() || scene.has_emissive_media(),
         };
-        let width = scene.camera.resolution[0] as usize;
-        if !super::frame::render_rows(frame, width, stop, nonfinite, |x, y| ctx.pixel(x, y)) {
+        let layers = self.plan.techniques.then_some(&mut self.layers);
+        if !camera_pass(layers, scene, &ctx, stop, nonfinite, frame) {
             return None;
         }
         times.camera = super::ppm::lap(clock);
         Some(times)
+    }
+
+    /// Each technique's contribution to the image so far (the mean over the iterations), named
+    /// as in [`TECHNIQUES`]: with `Plan::techniques` only.
+    pub(crate) fn technique_layers(&self) -> Option<Vec<(String, Vec<[f32; 3]>)>> {
+        if !self.plan.techniques || self.layers.iterations == 0 {
+            return None;
+        }
+        let n = self.layers.sums.len() / TECHNIQUES.len();
+        let inv = 1.0 / self.layers.iterations as f64;
+        let layer = |k: usize| {
+            let sums = &self.layers.sums[k * n..(k + 1) * n];
+            sums.iter().map(|s| s.map(|c| (c * inv) as f32)).collect()
+        };
+        Some(TECHNIQUES.iter().enumerate().map(|(k, name)| (name.to_string(), layer(k))).collect())
     }
 
     /// The volume photons for point queries and for beam queries, at radius `r`.
@@ -153,6 +194,41 @@ impl Combined {
             p.beta * scene.media[p.medium as usize].sigma_s(p.p)
         });
     }
+}
+
+/// The eye paths of one iteration into `frame`, and with `layers` each technique's share into
+/// them; `false` if `stop` was raised first.
+fn camera_pass(
+    layers: Option<&mut Layers>,
+    scene: &Scene,
+    ctx: &Context,
+    stop: &AtomicBool,
+    nonfinite: &AtomicU64,
+    frame: &mut Frame,
+) -> bool {
+    let width = scene.camera.resolution[0] as usize;
+    let Some(layers) = layers else {
+        let pixel = |x, y| ctx.pixel(x, y).0;
+        return super::frame::render_rows(frame, width, stop, nonfinite, pixel);
+    };
+    let mut tallies = vec![Tally::default(); frame.value.len()];
+    let pixel = |x, y| ctx.pixel(x, y);
+    if !super::frame::render_rows_with(frame, &mut tallies, width, stop, nonfinite, pixel) {
+        return false;
+    }
+    let n = frame.value.len();
+    layers.sums.resize(n * TECHNIQUES.len(), [0.0; 3]);
+    for (i, (tally, value)) in tallies.iter().zip(&frame.value).enumerate() {
+        let rest = *value - tally.iter().copied().sum::<Rgb>();
+        for (k, v) in tally.iter().chain([&rest]).enumerate() {
+            let sum = &mut layers.sums[k * n + i];
+            for c in 0..3 {
+                sum[c] += v[c] as f64;
+            }
+        }
+    }
+    layers.iterations += 1;
+    true
 }
 
 /// What the eye paths of one iteration read.
@@ -175,13 +251,21 @@ struct Context<'a> {
 }
 
 impl Context<'_> {
-    /// Radiance along the eye path of pixel (x, y), with the kernel bias of its merges.
-    fn pixel(&self, x: u32, y: u32) -> Estimate {
-        let mut eye =
-            CombinedEye { ctx: self, carry: 0.0, from: None, counted: false, bias: Rgb::ZERO };
+    /// Radiance along the eye path of pixel (x, y), with the kernel bias of its merges, and
+    /// what each weighted technique contributed.
+    fn pixel(&self, x: u32, y: u32) -> (Estimate, Tally) {
+        let mut eye = CombinedEye {
+            ctx: self,
+            carry: 0.0,
+            from: None,
+            counted: false,
+            first: true,
+            bias: Rgb::ZERO,
+            tally: Tally::default(),
+        };
         let value =
             walk_eye(self.scene, self.seed, self.iteration, [x, y], self.max_bounces, &mut eye);
-        Estimate { value, bias: eye.bias }
+        (Estimate { value, bias: eye.bias }, eye.tally)
     }
 }
 
@@ -196,8 +280,13 @@ struct CombinedEye<'a> {
     /// The emitter at the end of the last segment was counted there (in a medium, by its
     /// expected value over where the path went on): not again when the path reaches it.
     counted: bool,
+    /// No scattering event but specular ones yet: the path merges (at its first other vertex,
+    /// and along its segments up to it), unless it merges everywhere (`Kernels::deep`).
+    first: bool,
     /// The kernel bias of the path's merges, throughput included.
     bias: Rgb,
+    /// What each weighted technique added to the path's radiance.
+    tally: Tally,
 }
 
 /// How a vertex scatters, for next-event estimation's weight: the scattering value towards a
@@ -278,6 +367,16 @@ impl CombinedEye<'_> {
         le * hit_weight(nee, e, self.carry)
     }
 
+    /// Whether the path merges at its next vertex (and along the segment to it).
+    fn merges(&self) -> bool {
+        self.first || self.ctx.kernels.deep
+    }
+
+    /// The merges at the path's next vertex, a `site`: none where it does not merge.
+    fn merges_at(&self, site: Site) -> f32 {
+        if self.merges() { self.ctx.kernels.at(site) } else { 0.0 }
+    }
+
     /// Whether to gather at a vertex where no merge can weigh more than `bound`: always if
     /// `bound` ≥ [`MERGE_ROULETTE`], else with probability `bound / MERGE_ROULETTE` (Russian
     /// roulette on the merge, unbiased): `Some(factor)` to gather, its contribution multiplied
@@ -292,10 +391,18 @@ impl CombinedEye<'_> {
         (path.s.next_f32() < q).then(|| 1.0 / q)
     }
 
-    /// Adds a merge, weighted by the path's throughput.
-    fn add(&mut self, path: &mut EyePath, e: Estimate) {
-        path.l += path.beta * e.value;
+    /// Adds a merge of technique `k`, weighted by the path's throughput.
+    fn add(&mut self, path: &mut EyePath, e: Estimate, k: usize) {
+        let l = path.beta * e.value;
+        path.l += l;
+        self.tally[k] += l;
         self.bias += path.beta * e.bias;
+    }
+
+    /// Adds radiance `l` of technique `k` to the path.
+    fn count(&mut self, path: &mut EyePath, l: Rgb, k: usize) {
+        path.l += l;
+        self.tally[k] += l;
     }
 
     /// Point–beam: the volume photons along the segment o + t d, 0 < t < `t_max`, in medium
@@ -309,7 +416,7 @@ impl CombinedEye<'_> {
         tr: &SegmentTransmittance,
     ) {
         let ctx = self.ctx;
-        if ctx.beams.len() == 0 {
+        if ctx.beams.len() == 0 || !self.merges() {
             return;
         }
         let (o, d) = (path.ray.o, path.ray.d);
@@ -340,7 +447,7 @@ impl CombinedEye<'_> {
             inner += f * k_inner;
         });
         let norm = inv_r2 * ctx.gather.inv_paths * chance;
-        self.add(path, Estimate::from_radii(sum * norm, inner * norm));
+        self.add(path, Estimate::from_radii(sum * norm, inner * norm), BEAM);
     }
 
     /// Where the path goes on from the segment o + t d, 0 < t < `t_max`, in `m`, of
@@ -383,6 +490,9 @@ impl CombinedEye<'_> {
     /// Point–point: the volume photons within the volume radius of the collision `at`.
     fn points(&mut self, path: &mut EyePath, id: u32, x: Vec3, at: &InMedium) {
         let ctx = self.ctx;
+        if !self.merges() {
+            return;
+        }
         let (phase, bounces, carry, d) = (at.m.phase(), self.bounces(path), self.carry, at.d);
         let kp = ctx.kernels.point;
         let bound = kp / (kp + min_phase(phase) * carry / at.sigma);
@@ -405,13 +515,16 @@ impl CombinedEye<'_> {
             inner += f * k_inner;
         });
         let norm = inv_r2 / radius * ctx.gather.inv_paths * chance;
-        self.add(path, at.sigma_s * Estimate::from_radii(sum * norm, inner * norm));
+        self.add(path, at.sigma_s * Estimate::from_radii(sum * norm, inner * norm), POINT);
     }
 
     /// Surface merging at the diffuse point `p` (normal `n` on the eye's side), the eye arriving
     /// with cosine `gamma_in`.
     fn surface(&mut self, path: &mut EyePath, p: Vec3, n: Vec3, at: &AtSurface, gamma_in: f32) {
         let ctx = self.ctx;
+        if !self.merges() {
+            return;
+        }
         let (bounces, carry, ks) = (self.bounces(path), self.carry, ctx.kernels.surface);
         // On a diffuse surface the eye's side is exactly carry / π (the cosines cancel).
         let Some(chance) = self.gather_chance(path, ks / (ks + carry * FRAC_1_PI)) else {
@@ -436,7 +549,7 @@ impl CombinedEye<'_> {
         });
         let norm = inv_r2 * ctx.gather.inv_paths * chance;
         let f = at.material.diffuse_f();
-        self.add(path, f * Estimate::from_radii(sum * norm, inner * norm));
+        self.add(path, f * Estimate::from_radii(sum * norm, inner * norm), SURFACE);
     }
 
     /// Next-event estimation from the eye's vertex at `r` (`r_mis`: the same point without the
@@ -482,6 +595,15 @@ impl CombinedEye<'_> {
     }
 }
 
+/// Whether eye paths merge at every vertex (UPBP's set of techniques) or only at their first
+/// vertex that is not specular and along their segments up to it. At the first vertex a merge is
+/// a photon-mapping estimate without a final gather; deeper merges come after the eye path's own
+/// sampling, which the densities in the weights do not see as noise, and each costs a query:
+/// measured at equal time (25 s, 2 cores, docs/convergence/run.sh's settings), merging at the
+/// first vertex only gave 7.5 % against 10.2 % on cornell-fog and 6.1 % against 7.1 % on
+/// cornell-box, merging everywhere 6.5 % against 7.8 % on vdb-cloud.
+const MERGE_EVERYWHERE: bool = false;
+
 /// Merges that can weigh at least this much are always gathered; below, by Russian roulette
 /// ([`CombinedEye::gather_chance`]).
 const MERGE_ROULETTE: f32 = 0.1;
@@ -509,7 +631,8 @@ impl EyeVisitor for CombinedEye<'_> {
         if let Some(hit) = end {
             // The emitter the segment ends on, by its expected value over that choice.
             if let Some(le) = path.scene.le(hit, -d) {
-                path.l += path.beta * tr.at(t_max) * self.emission_weighted(path, hit, le);
+                let l = path.beta * tr.at(t_max) * self.emission_weighted(path, hit, le);
+                self.count(path, l, HIT);
                 self.counted = true;
             }
         }
@@ -518,11 +641,11 @@ impl EyeVisitor for CombinedEye<'_> {
         let x = o + d * t;
         let at = InMedium { m, d, sigma_s: m.sigma_s(x), sigma: m.mean_sigma_t(x) };
         self.points(path, id, x, &at);
-        let c = self.ctx.kernels.at(Site::Medium(at.sigma));
+        let c = self.merges_at(Site::Medium(at.sigma));
         let r = Receiver::medium(x);
         let medium = path.ray.medium;
         let l = self.nee(path, &r, &r, medium, c, at.sigma, &at);
-        path.l += path.beta * l;
+        self.count(path, path.beta * l, NEE);
         if path.last() && !self.ctx.beyond_last {
             return Next::Stop;
         }
@@ -531,6 +654,7 @@ impl EyeVisitor for CombinedEye<'_> {
         // The phase function is symmetric: the light's reverse density is the eye's.
         self.carry = eye_carry(self.carry, c, ps.pdf, at.sigma, at.sigma, ps.pdf);
         self.from = Some((r, ps.pdf));
+        self.first = false;
         Next::Scatter { o: x, d: ps.wi }
     }
 
@@ -539,7 +663,10 @@ impl EyeVisitor for CombinedEye<'_> {
             // Counted at the end of the segment in the medium that led here.
             return Rgb::ZERO;
         }
-        path.beta * self.emission_weighted(path, hit, le)
+        // The walker adds it to the path.
+        let l = path.beta * self.emission_weighted(path, hit, le);
+        self.tally[HIT] += l;
+        l
     }
 
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
@@ -548,12 +675,12 @@ impl EyeVisitor for CombinedEye<'_> {
         let gamma_in = wo.dot(n);
         let at = AtSurface { material, wo, ng: hit.ng, ns: hit.ns };
         self.surface(path, hit.p, n, &at, gamma_in);
-        let c = self.ctx.kernels.surface;
+        let c = self.merges_at(Site::Surface);
         let r = Receiver::surface(offset_origin(hit.p, n, n), n);
         let r_mis = Receiver::surface(hit.p, n);
         let medium = path.ray.medium;
         let l = self.nee(path, &r, &r_mis, medium, c, gamma_in, &at);
-        path.l += path.beta * l;
+        self.count(path, path.beta * l, NEE);
         if path.last() && !self.ctx.beyond_last {
             return Next::Stop;
         }
@@ -565,6 +692,7 @@ impl EyeVisitor for CombinedEye<'_> {
         let p_rev = at.p_light(bs.wi);
         self.carry = eye_carry(self.carry, c, p_rev, gamma_in, bs.wi.dot(hit.ng).abs(), bs.pdf);
         self.from = Some((r_mis, bs.pdf));
+        self.first = false;
         Next::Scatter { o: r.p, d: bs.wi }
     }
 

@@ -58,23 +58,37 @@ pub(crate) fn render_rows(
     nonfinite: &AtomicU64,
     radiance: impl Fn(u32, u32) -> Estimate + Sync,
 ) -> bool {
+    let mut nothing = vec![(); frame.value.len()];
+    render_rows_with(frame, &mut nothing, width, stop, nonfinite, |x, y| (radiance(x, y), ()))
+}
+
+/// [`render_rows`], where `radiance(x, y)` also gives something of its own per pixel, kept in
+/// `extra` (its default where the pixel's estimate was not finite).
+pub(crate) fn render_rows_with<T: Send + Default>(
+    frame: &mut Frame,
+    extra: &mut [T],
+    width: usize,
+    stop: &AtomicBool,
+    nonfinite: &AtomicU64,
+    radiance: impl Fn(u32, u32) -> (Estimate, T) + Sync,
+) -> bool {
     let rows = frame.value.par_chunks_mut(width).zip(frame.bias.par_chunks_mut(width));
-    rows.enumerate().for_each(|(y, (row, bias))| {
+    rows.zip(extra.par_chunks_mut(width)).enumerate().for_each(|(y, ((row, bias), more))| {
         if stop.load(Ordering::Relaxed) {
             return;
         }
-        for (x, (px, b)) in row.iter_mut().zip(bias).enumerate() {
+        for (x, ((px, b), m)) in row.iter_mut().zip(bias).zip(more).enumerate() {
             // Pixel by pixel: in a pathological medium one pixel can take milliseconds, and a
             // stopped iteration is discarded anyway.
             if stop.load(Ordering::Relaxed) {
                 return;
             }
-            let e = radiance(x as u32, y as u32);
-            (*px, *b) = if e.value.is_finite() && e.bias.is_finite() {
-                (e.value, e.bias)
+            let (e, own) = radiance(x as u32, y as u32);
+            (*px, *b, *m) = if e.value.is_finite() && e.bias.is_finite() {
+                (e.value, e.bias, own)
             } else {
                 nonfinite.fetch_add(1, Ordering::Relaxed);
-                (Rgb::ZERO, Rgb::ZERO)
+                (Rgb::ZERO, Rgb::ZERO, T::default())
             };
         }
     });

@@ -142,6 +142,15 @@ impl Method {
         }
     }
 
+    /// Each technique's weighted contribution to the image so far (the combined integrator
+    /// with `techniques` on), named.
+    pub(crate) fn technique_layers(&self) -> Option<Vec<(String, Vec<[f32; 3]>)>> {
+        match self {
+            Method::Combined(m) => m.technique_layers(),
+            _ => None,
+        }
+    }
+
     /// Surface and volume photons stored by the last iteration.
     pub(crate) fn photons_stored(&self) -> [u64; 2] {
         match self {

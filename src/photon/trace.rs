@@ -230,7 +230,7 @@ impl<'a> PathMis<'a> {
     /// Leaves the vertex (a `site`) by a direction of density `p_out` and cosine (or σ)
     /// `gamma_out`; `p_rev`: the eye's density of the direction the light came from, given it.
     fn leave(&mut self, site: Site, p_rev: f32, gamma_out: f32, p_out: f32) {
-        self.carry = self.here.carry(self.kernels.at(site), p_rev, gamma_out, p_out);
+        self.carry = self.here.carry(self.kernels.at_light(site), p_rev, gamma_out, p_out);
     }
 }
 

@@ -112,3 +112,79 @@ fn a_stop_request_ends_a_long_iteration_inside_it() {
     });
     assert_eq!(image.info.iterations, 0);
 }
+
+/// `techniques` (the combined integrator): one layer per technique, each the mean over the
+/// iterations of what that technique added, weighted, so that they sum to the image — in a fog
+/// lit by an area light (where every weighted technique contributes) and in the campfire (an
+/// emitting grid, whose light the `emitted` layer holds); the layers reach the EXR file; and
+/// the option is refused by another integrator and by a range.
+#[test]
+fn technique_layers_sum_to_the_image() {
+    use haze::settings::Integrator;
+    for (name, size) in [("cornell-fog.toml", [32, 32]), ("campfire.toml", [40, 24])] {
+        let mut scene = Scene::load(scene_path(name)).unwrap();
+        scene.set_resolution(size).unwrap();
+        let settings = haze::RenderSettings {
+            integrator: Integrator::Combined,
+            techniques: true,
+            iterations: Some(3),
+            photons: 20_000,
+            ..scene.settings.clone()
+        };
+        let image = haze::render(&scene, &settings, &mut Silent, &AtomicBool::new(false)).unwrap();
+        let layers = image.techniques.as_ref().expect("technique layers");
+        let names: Vec<&str> = layers.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["hit", "nee", "surface", "point", "beam", "emitted"], "{name}");
+        let mut worst = 0.0f64;
+        for (i, p) in image.pixels.iter().enumerate() {
+            for c in 0..3 {
+                let sum: f64 = layers.iter().map(|(_, l)| l[i][c] as f64).sum();
+                // The film's exact fixed-point mean against the layers' f64 sums of f32 values.
+                let err = (sum - p[c] as f64).abs() / (p[c] as f64).abs().max(1e-3);
+                worst = worst.max(err);
+            }
+        }
+        assert!(worst < 1e-4, "{name}: the layers sum to the image within {worst:e}");
+        // Each layer carries light where its technique does: every weighted technique in the
+        // fog; the campfire's light in its `emitted` layer.
+        let total =
+            |k: usize| layers[k].1.iter().map(|p| p.iter().sum::<f32>() as f64).sum::<f64>();
+        if name == "cornell-fog.toml" {
+            for (k, n) in names.iter().enumerate().take(5) {
+                assert!(total(k) > 0.0, "{name}: the {n} layer is black");
+            }
+        } else {
+            assert!(total(5) > 0.0, "{name}: the emitted layer is black");
+        }
+        let dir = temp_dir("techniques");
+        let path = dir.join("t.exr");
+        image.write(&path, 1.0).unwrap();
+        let meta = exr::meta::MetaData::read_from_file(&path, false).unwrap();
+        let written: Vec<String> = meta
+            .headers
+            .iter()
+            .filter_map(|h| h.own_attributes.layer_name.as_ref().map(|n| n.to_string()))
+            .collect();
+        for n in &names {
+            assert!(written.contains(&format!("technique_{n}")), "{name}: {written:?}");
+        }
+    }
+    let scene = Scene::load(scene_path("cornell-box.toml")).unwrap();
+    let hybrid = haze::RenderSettings { techniques: true, ..scene.settings.clone() };
+    let refused = haze::render(&scene, &hybrid, &mut Silent, &AtomicBool::new(false));
+    assert!(refused.unwrap_err().to_string().contains("techniques"));
+    let combined = haze::RenderSettings {
+        integrator: Integrator::Combined,
+        iterations: Some(3),
+        photons: 1_000,
+        ..hybrid
+    };
+    let range = haze::render_partial(
+        &scene,
+        &combined,
+        haze::Start::At(2),
+        &mut Silent,
+        &AtomicBool::new(false),
+    );
+    assert!(range.unwrap_err().to_string().contains("one process"));
+}
