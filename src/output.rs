@@ -224,6 +224,37 @@ impl Image {
         )
     }
 
+    /// The EXR layers beside the image, with the note each carries: the noise estimate, the
+    /// kernel bias and its variance, and the combined integrator's technique layers.
+    fn extra_layers(&self) -> Vec<(String, &[[f32; 3]], &'static str)> {
+        let mut out: Vec<(String, &[[f32; 3]], &'static str)> = Vec::new();
+        // Every render carries its noise estimate. Only the path tracer's iterations are
+        // identically distributed; photon-mapping iterations drift as the radius shrinks, so
+        // their spread also counts that drift (a slight overstatement of the noise), and
+        // `haze converge` uses the layer of path-traced references only.
+        if let Some(variance) = &self.variance {
+            let note = match self.info.settings.integrator {
+                Integrator::Path => {
+                    "estimated variance of the mean per pixel: the sample variance of the iterations / their count"
+                }
+                _ => {
+                    "estimated variance of the mean per pixel: the sample variance of the iterations / their count (photon mapping: includes the drift of the iterations' means as the radius shrinks)"
+                }
+            };
+            out.push(("variance".into(), variance, note));
+        }
+        if let Some(bias) = &self.bias {
+            out.push(("bias".into(), bias, "estimated kernel bias per pixel (expected value minus limit): the mean of the iterations' 2 (L_r - L_{r/sqrt 2}), docs/theory.md"));
+        }
+        if let Some(v) = &self.bias_variance {
+            out.push(("bias_variance".into(), v, "estimated variance of the bias layer: the sample variance of the iterations' bias estimates / their count"));
+        }
+        for (name, data) in self.techniques.iter().flatten() {
+            out.push((format!("technique_{name}"), data, "one technique's contribution to the image, weighted by multiple importance sampling (the combined integrator): the technique layers sum to the image"));
+        }
+        out
+    }
+
     fn write_exr_with(&self, path: &Path, reference: bool) -> Result<()> {
         use exr::meta::attribute::{AttributeValue, Text};
         use exr::prelude::*;
@@ -268,42 +299,8 @@ impl Image {
             put("reference", text(&self.reference_description()));
         }
         let mut layers = vec![main];
-        // Every render carries its noise estimate. Only the path tracer's iterations are
-        // identically distributed; photon-mapping iterations drift as the radius shrinks, so
-        // their spread also counts that drift (a slight overstatement of the noise), and
-        // `haze converge` uses the layer of path-traced references only.
-        if let Some(variance) = &self.variance {
-            layers.push(layer(
-                "variance",
-                variance,
-                Some(match self.info.settings.integrator {
-                    Integrator::Path => "estimated variance of the mean per pixel: the sample variance of the iterations / their count",
-                    _ => "estimated variance of the mean per pixel: the sample variance of the iterations / their count (photon mapping: includes the drift of the iterations' means as the radius shrinks)",
-                }),
-            ));
-        }
-        if let Some(bias) = &self.bias {
-            layers.push(layer(
-                "bias",
-                bias,
-                Some("estimated kernel bias per pixel (expected value minus limit): the mean of the iterations' 2 (L_r - L_{r/sqrt 2}), docs/theory.md"),
-            ));
-        }
-        if let Some(v) = &self.bias_variance {
-            layers.push(layer(
-                "bias_variance",
-                v,
-                Some("estimated variance of the bias layer: the sample variance of the iterations' bias estimates / their count"),
-            ));
-        }
-        let names: Vec<String> =
-            self.techniques.iter().flatten().map(|(name, _)| format!("technique_{name}")).collect();
-        for ((_, data), name) in self.techniques.iter().flatten().zip(&names) {
-            layers.push(layer(
-                name,
-                data,
-                Some("one technique's contribution to the image, weighted by multiple importance sampling (the combined integrator): the technique layers sum to the image"),
-            ));
+        for (name, data, note) in self.extra_layers() {
+            layers.push(layer(&name, data, Some(note)));
         }
         let bounds = exr::math::Vec2(size.0, size.1);
         let image = Image::from_layers(
