@@ -25,11 +25,10 @@ use crate::estimate::mis::weight;
 use crate::estimate::mis::{Kernels, Site, eye_carry, hit_weight, merge_total, nee_weight};
 use crate::estimate::surface::{Gather, NORMAL_COS};
 use crate::math::{Rgb, offset_origin};
-use crate::medium::phase::HenyeyGreenstein;
 use crate::medium::{BEAM_SEGMENT_RATE, Medium, SegmentTransmittance, TransmittanceDistance};
-use crate::photon::beam::{BeamMap, Thinning};
+use crate::photon::beam::BeamMap;
 use crate::photon::map::PhotonGrid;
-use crate::photon::trace::{PhotonPass, Photons, emitted, trace_photons};
+use crate::photon::trace::{PhotonPass, Photons, emitted, nee_density, trace_photons};
 use crate::photon::{BounceRange, Photon, VolumePhoton};
 use crate::plan::{Plan, Radii};
 use crate::scene::Scene;
@@ -185,14 +184,7 @@ impl Combined {
     fn build_volume_maps(&mut self, scene: &Scene, i: u64, r: f32) {
         let photons = &self.photons.volume;
         self.volume_points.build(photons, r);
-        let thinning = self.plan.beam_cell_budget.map(|budget| Thinning {
-            budget,
-            seed: self.plan.seed,
-            iteration: i,
-        });
-        self.volume_beams.build(photons, r, thinning, Some(&scene.camera), |p| {
-            p.beta * scene.media[p.medium as usize].sigma_s(p.p)
-        });
+        super::ppm::build_beam_map(&mut self.volume_beams, photons, scene, &self.plan, i, r);
     }
 }
 
@@ -360,7 +352,7 @@ impl CombinedEye<'_> {
         let ctx = self.ctx;
         let Some((li, _)) = ctx.lights.area_light(hit.tag) else { return le };
         let wo = -path.ray.d;
-        let e = emitted(ctx.lights.emission_prob(li), &ctx.scene.lights[li], hit.ng, wo);
+        let (e, _) = emitted(ctx.lights.emission_prob(li), &ctx.scene.lights[li], hit.ng, wo);
         let nee = self.from.as_ref().map_or(0.0, |(r, p_eye)| {
             ctx.lights.pdf_li(&ctx.scene.lights, hit.tag, r, hit.p, e.cos) / p_eye
         });
@@ -423,7 +415,7 @@ impl CombinedEye<'_> {
         let (phase, bounces, carry) = (m.phase(), self.bounces(path), self.carry);
         // The eye's side is at least p_min · carry / σ: the beam weighs at most this.
         let kb = ctx.kernels.beam;
-        let Some(chance) = self.gather_chance(path, kb / (kb + min_phase(phase) * carry)) else {
+        let Some(chance) = self.gather_chance(path, kb / (kb + phase.min_value() * carry)) else {
             return;
         };
         let radius = ctx.beams.radius();
@@ -495,7 +487,7 @@ impl CombinedEye<'_> {
         }
         let (phase, bounces, carry, d) = (at.m.phase(), self.bounces(path), self.carry, at.d);
         let kp = ctx.kernels.point;
-        let bound = kp / (kp + min_phase(phase) * carry / at.sigma);
+        let bound = kp / (kp + phase.min_value() * carry / at.sigma);
         let Some(chance) = self.gather_chance(path, bound) else { return };
         let radius = ctx.points.radius();
         let inv_r2 = 1.0 / (radius * radius);
@@ -552,15 +544,14 @@ impl CombinedEye<'_> {
         self.add(path, f * Estimate::from_radii(sum * norm, inner * norm), SURFACE);
     }
 
-    /// Next-event estimation from the eye's vertex at `r` (`r_mis`: the same point without the
-    /// ray offset, as the light paths see it), in `medium`, where the merges are `c` and the eye
-    /// arrived with cosine (or σ) `gamma_in`; weighed against the other techniques.
+    /// Next-event estimation from the eye's vertex at `r` (the receiver the light paths' records
+    /// use too), in `medium`, where the merges are `c` and the eye arrived with cosine (or σ)
+    /// `gamma_in`; weighed against the other techniques.
     #[allow(clippy::too_many_arguments)]
     fn nee(
         &self,
         path: &mut EyePath,
         r: &Receiver,
-        r_mis: &Receiver,
         medium: Option<u32>,
         c: f32,
         gamma_in: f32,
@@ -580,10 +571,10 @@ impl CombinedEye<'_> {
             return Rgb::ZERO;
         }
         let n = point.and_then(|pt| pt.n).unwrap_or(Vec3::ZERO);
-        let e = emitted(ctx.lights.emission_prob(li), light, n, -ls.wi);
-        let pdfs = light.pdf_emission(n, -ls.wi);
-        let d2 = point.map_or(1.0 / pdfs.pos, |pt| (pt.p - r_mis.p).length_squared());
-        let nee = ctx.lights.prob(r_mis, li) * pdfs.pos * d2;
+        let (e, pos) = emitted(ctx.lights.emission_prob(li), light, n, -ls.wi);
+        // The light paths evaluate the same density at the same receiver (`photon/trace.rs`).
+        let x0 = point.map_or(r.p, |pt| pt.p);
+        let nee = nee_density(light, p_pick, pos, x0, r.p);
         let hit = if e.cos > 0.0 { at.p_eye(ls.wi) * e.cos / nee } else { 0.0 };
         let (gamma, p_light) = (at.gamma(ls.wi), at.p_light(ls.wi));
         let w = nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in);
@@ -601,18 +592,14 @@ impl CombinedEye<'_> {
 /// sampling, which the densities in the weights do not see as noise, and each costs a query:
 /// measured at equal time (25 s, 2 cores, docs/convergence/run.sh's settings), merging at the
 /// first vertex only gave 7.5 % against 10.2 % on cornell-fog and 6.1 % against 7.1 % on
-/// cornell-box, merging everywhere 6.5 % against 7.8 % on vdb-cloud.
+/// cornell-box, merging everywhere 6.5 % against 7.8 % on vdb-cloud — and far less noisy in
+/// albedo-1 media: `haze validate --quick`'s coloured-extinction furnace read 1.060 ± 0.016
+/// merging everywhere, 1.183 ± 0.109 merging at the first vertex.
 const MERGE_EVERYWHERE: bool = false;
 
 /// Merges that can weigh at least this much are always gathered; below, by Russian roulette
 /// ([`CombinedEye::gather_chance`]).
 const MERGE_ROULETTE: f32 = 0.1;
-
-/// The smallest value of a Henyey–Greenstein phase function, (1 − |g|) / (4π (1 + |g|)²).
-fn min_phase(phase: &HenyeyGreenstein) -> f32 {
-    let g = phase.g.abs();
-    (1.0 - g) / (4.0 * std::f32::consts::PI * (1.0 + g) * (1.0 + g))
-}
 
 impl EyeVisitor for CombinedEye<'_> {
     fn medium(
@@ -644,7 +631,7 @@ impl EyeVisitor for CombinedEye<'_> {
         let c = self.merges_at(Site::Medium(at.sigma));
         let r = Receiver::medium(x);
         let medium = path.ray.medium;
-        let l = self.nee(path, &r, &r, medium, c, at.sigma, &at);
+        let l = self.nee(path, &r, medium, c, at.sigma, &at);
         self.count(path, path.beta * l, NEE);
         if path.last() && !self.ctx.beyond_last {
             return Next::Stop;
@@ -677,9 +664,8 @@ impl EyeVisitor for CombinedEye<'_> {
         self.surface(path, hit.p, n, &at, gamma_in);
         let c = self.merges_at(Site::Surface);
         let r = Receiver::surface(offset_origin(hit.p, n, n), n);
-        let r_mis = Receiver::surface(hit.p, n);
         let medium = path.ray.medium;
-        let l = self.nee(path, &r, &r_mis, medium, c, gamma_in, &at);
+        let l = self.nee(path, &r, medium, c, gamma_in, &at);
         self.count(path, path.beta * l, NEE);
         if path.last() && !self.ctx.beyond_last {
             return Next::Stop;
@@ -691,7 +677,7 @@ impl EyeVisitor for CombinedEye<'_> {
         path.beta *= bs.weight;
         let p_rev = at.p_light(bs.wi);
         self.carry = eye_carry(self.carry, c, p_rev, gamma_in, bs.wi.dot(hit.ng).abs(), bs.pdf);
-        self.from = Some((r_mis, bs.pdf));
+        self.from = Some((r, bs.pdf));
         self.first = false;
         Next::Scatter { o: r.p, d: bs.wi }
     }

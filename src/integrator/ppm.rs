@@ -262,20 +262,14 @@ impl PhotonMapper {
     /// Step 2b, the volume photon map the volume estimate queries with radius `r_vol`.
     fn build_volume_map(&mut self, scene: &Scene, i: u64, r_vol: f64) {
         match self.plan.estimate {
-            VolumeEstimate::Beam => {
-                let thinning = self.plan.beam_cell_budget.map(|budget| Thinning {
-                    budget,
-                    seed: self.plan.seed,
-                    iteration: i,
-                });
-                self.volume_beams.build(
-                    &self.photons.volume,
-                    r_vol as f32,
-                    thinning,
-                    Some(&scene.camera),
-                    |p| p.beta * scene.media[p.medium as usize].sigma_s(p.p),
-                );
-            }
+            VolumeEstimate::Beam => build_beam_map(
+                &mut self.volume_beams,
+                &self.photons.volume,
+                scene,
+                &self.plan,
+                i,
+                r_vol as f32,
+            ),
             VolumeEstimate::Point => self.volume_points.build(&self.photons.volume, r_vol as f32),
         }
     }
@@ -308,6 +302,24 @@ impl PhotonMapper {
             media_near: plan.media_near,
         }
     }
+}
+
+/// Builds `beams` over the volume photons of iteration `i` for queries of radius `r`: each photon
+/// stored with β·σ_s(x_p) as its power, thinned where the plan says, with view bins for the
+/// camera.
+pub(crate) fn build_beam_map(
+    beams: &mut BeamMap,
+    photons: &[VolumePhoton],
+    scene: &Scene,
+    plan: &Plan,
+    i: u64,
+    r: f32,
+) {
+    let thinning =
+        plan.beam_cell_budget.map(|budget| Thinning { budget, seed: plan.seed, iteration: i });
+    beams.build(photons, r, thinning, Some(&scene.camera), |p| {
+        p.beta * scene.media[p.medium as usize].sigma_s(p.p)
+    });
 }
 
 /// Light paths per round of the guiding pilot: the paths of an iteration, within these bounds …

@@ -304,7 +304,7 @@ impl Medium {
     /// `estimate/mis.rs`).
     #[inline]
     pub fn mean_sigma_t(&self, p: Vec3) -> f32 {
-        crate::math::luminance(self.sigma_s(p) + self.sigma_a(p))
+        tracked!(self, m => Tracked::sigma_t(m, p) * crate::math::luminance(m.tint(p)))
     }
 
     /// The phase function.

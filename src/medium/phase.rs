@@ -46,6 +46,13 @@ impl HenyeyGreenstein {
         (1.0 - g * g) / (4.0 * PI * denom * denom.sqrt())
     }
 
+    /// The smallest value of the phase function, (1 − |g|) / (4π (1 + |g|)²) (at θ = π for
+    /// g > 0, at θ = 0 for g < 0).
+    #[inline]
+    pub fn min_value(&self) -> f32 {
+        self.eval_cos(-self.g.signum())
+    }
+
     /// p(d_in, d_out).
     #[inline]
     pub fn eval(&self, d_in: Vec3, d_out: Vec3) -> f32 {

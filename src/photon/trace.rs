@@ -176,10 +176,23 @@ struct PathMis<'a> {
 
 /// How `light`, picked for emission with probability `p_light`, emits from a point of normal `n`
 /// in direction `d`, for the combined estimator's weights.
-pub(crate) fn emitted(p_light: f32, light: &Light, n: Vec3, d: Vec3) -> Emitted {
+/// Also the density of the origin on the light ([`EmissionPdfs::pos`](crate::scene::light::EmissionPdfs)).
+pub(crate) fn emitted(p_light: f32, light: &Light, n: Vec3, d: Vec3) -> (Emitted, f32) {
     let pdfs = light.pdf_emission(n, d);
     let cos = if let Light::Area { .. } = light { n.dot(d).abs() } else { 0.0 };
-    Emitted { emit: p_light * pdfs.pos * pdfs.dir, cos }
+    (Emitted { emit: p_light * pdfs.pos * pdfs.dir, cos }, pdfs.pos)
+}
+
+/// Next-event estimation's density of the point `x0` of `light` (origin density `pos`) from the
+/// receiver at `x1`, times their squared distance, the light chosen there with probability
+/// `pick`: the `nee` of [`LightMis::first`] (a directional light: per area of its emitting
+/// rectangle, 1 / `pos`, instead of the squared distance).
+pub(crate) fn nee_density(light: &Light, pick: f32, pos: f32, x0: Vec3, x1: Vec3) -> f32 {
+    let d2 = match light {
+        Light::Directional { .. } => 1.0 / pos,
+        _ => (x1 - x0).length_squared(),
+    };
+    pick * pos * d2
 }
 
 /// How a light path left its light.
@@ -189,9 +202,6 @@ struct Start {
     x0: Vec3,
     pos: f32,
     e: Emitted,
-    /// A directional light: next-event estimation's density of the origin is per area of its
-    /// emitting rectangle, 1 / `pos`, not per squared distance.
-    directional: bool,
 }
 
 impl<'a> PathMis<'a> {
@@ -204,22 +214,20 @@ impl<'a> PathMis<'a> {
         light: &Light,
         e: &Emission,
     ) -> Self {
-        let pdfs = light.pdf_emission(e.n, e.d);
-        let emitted = emitted(lights.emission_prob(li), light, e.n, e.d);
-        let directional = matches!(light, Light::Directional { .. });
-        let start = Some(Start { light: li, x0: e.p, pos: pdfs.pos, e: emitted, directional });
+        let (emitted, pos) = emitted(lights.emission_prob(li), light, e.n, e.d);
+        let start = Some(Start { light: li, x0: e.p, pos, e: emitted });
         Self { lights, kernels, start, here: LightMis::default(), carry: 0.0 }
     }
 
-    /// Arrives at the vertex `x`, with the cosine (or σ) `gamma` against the arriving direction;
-    /// `r`: where next-event estimation could connect to the light (None at a specular vertex).
-    fn arrive(&mut self, x: Vec3, gamma: f32, r: Option<Receiver>) {
+    /// Arrives at a vertex, with the cosine (or σ) `gamma` against the arriving direction; `r`:
+    /// where next-event estimation there connects from, as the eye paths' receiver (None at a
+    /// specular vertex).
+    fn arrive(&mut self, scene: &Scene, gamma: f32, r: Option<Receiver>) {
         self.here = match self.start.take() {
             Some(st) => {
                 let nee = r.map_or(0.0, |r| {
-                    let d2 =
-                        if st.directional { 1.0 / st.pos } else { (x - st.x0).length_squared() };
-                    self.lights.prob(&r, st.light) * st.pos * d2
+                    let pick = self.lights.prob(&r, st.light);
+                    nee_density(&scene.lights[st.light], pick, st.pos, st.x0, r.p)
                 });
                 LightMis::first(st.e, nee, gamma)
             }
@@ -359,7 +367,7 @@ impl Traveller for Tracing<'_> {
         let sigma = match &mut path.mis {
             Some(mis) => {
                 let sigma = m.mean_sigma_t(p);
-                mis.arrive(p, sigma, Some(Receiver::medium(p)));
+                mis.arrive(scene, sigma, Some(Receiver::medium(p)));
                 sigma
             }
             None => 0.0,
@@ -408,7 +416,9 @@ impl Traveller for Tracing<'_> {
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
         let diffuse = material.is_diffuse();
         if let Some(mis) = &mut path.mis {
-            mis.arrive(hit.p, wo.dot(n), diffuse.then(|| Receiver::surface(hit.p, n)));
+            // The eye's receiver there: off the surface on the lit side.
+            let r = diffuse.then(|| Receiver::surface(offset_origin(hit.p, n, n), n));
+            mis.arrive(scene, wo.dot(n), r);
         }
         if diffuse {
             // Power convention (see `Photon`): store the path throughput as it arrives.

@@ -279,88 +279,85 @@ type SeedTile = (String, Vec<f64>, f64, f64, f64);
 fn seed_tiles(case: &PhotonCase, seeds: u64) -> Vec<SeedTile> {
     use haze::lab::tiles::tile_means;
     let mut tiles = Vec::new();
-    {
-        let (name, tile) = (case.name, case.tile);
-        let path =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/references/{name}.exr"));
-        let reference = Reference::load(&path).unwrap();
-        assert_eq!(reference.made_by.map(|m| m.0), Some(case.made_by), "{name}");
-        let (w, h) = (reference.width, reference.height);
-        let mut scene = Scene::load(scene_path(&format!("{name}.toml"))).unwrap();
-        scene.set_resolution([w, h]).unwrap();
-        let photon_reference = case.made_by != Integrator::Path;
-        let factor = if photon_reference {
-            (1.0 + (seeds * ITERATIONS) as f64 / case.reference_iterations as f64).sqrt()
+    let (name, tile) = (case.name, case.tile);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/references/{name}.exr"));
+    let reference = Reference::load(&path).unwrap();
+    assert_eq!(reference.made_by.map(|m| m.0), Some(case.made_by), "{name}");
+    let (w, h) = (reference.width, reference.height);
+    let mut scene = Scene::load(scene_path(&format!("{name}.toml"))).unwrap();
+    scene.set_resolution([w, h]).unwrap();
+    let photon_reference = case.made_by != Integrator::Path;
+    let factor = if photon_reference {
+        (1.0 + (seeds * ITERATIONS) as f64 / case.reference_iterations as f64).sqrt()
+    } else {
+        1.0
+    };
+    let zero = vec![[0.0f32; 3]; (w * h) as usize];
+    let ref_bias_layer = reference.bias_layer.as_deref().unwrap_or(&zero);
+    let ref_bias = tile_means(w, h, ref_bias_layer, tile);
+    let from = (case.first_row * w) as usize;
+    let ref_channel_bias = channel_means(&ref_bias_layer[from..]);
+    // A path-traced reference's own noise, per tile mean and channel mean: its pixels are
+    // independent, and a tile's channels are at most perfectly correlated (so the variance of
+    // their mean is at most the mean of their variances).
+    let ref_var = |pixels: usize, mean_var: f64| {
+        if photon_reference { 0.0 } else { mean_var / pixels as f64 }
+    };
+    let variance = reference.variance_layer.as_deref().unwrap_or(&zero);
+    let tile_var = tile_means(w, h, variance, tile);
+    let channel_var = channel_means(&variance[from..]);
+    let (mut diffs, mut biases) = (Vec::new(), Vec::new());
+    let (mut channel_diffs, mut channel_biases) = (Vec::new(), Vec::new());
+    for seed in 1..=seeds {
+        let mut s = RenderSettings {
+            integrator: case.integrator,
+            iterations: Some(ITERATIONS),
+            photons: case.photons,
+            seed,
+            ..scene.settings.clone()
+        };
+        (case.overrides)(&mut s);
+        let image = haze::render(&scene, &s, &mut Silent, &AtomicBool::new(false)).unwrap();
+        let d: Vec<[f32; 3]> = image
+            .pixels
+            .iter()
+            .zip(&reference.pixels)
+            .map(|(a, b)| [0, 1, 2].map(|c| a[c] - b[c]))
+            .collect();
+        diffs.push(tile_means(w, h, &d, tile));
+        let bias = image.bias.as_deref().unwrap_or(&zero);
+        biases.push(tile_means(w, h, bias, tile));
+        channel_diffs.push(channel_means(&d[from..]));
+        channel_biases.push(channel_means(&bias[from..]));
+    }
+    for c in 0..3 {
+        let d: Vec<f64> = channel_diffs.iter().map(|m| m[c]).collect();
+        let b = channel_biases.iter().map(|m| m[c]).sum::<f64>() / seeds as f64;
+        let allowance = if case.bias_allowance {
+            haze::lab::converge::FIRST_ORDER_BIAS * (b.abs() + ref_channel_bias[c].abs())
         } else {
-            1.0
+            0.0
         };
-        let zero = vec![[0.0f32; 3]; (w * h) as usize];
-        let ref_bias_layer = reference.bias_layer.as_deref().unwrap_or(&zero);
-        let ref_bias = tile_means(w, h, ref_bias_layer, tile);
-        let from = (case.first_row * w) as usize;
-        let ref_channel_bias = channel_means(&ref_bias_layer[from..]);
-        // A path-traced reference's own noise, per tile mean and channel mean: its pixels are
-        // independent, and a tile's channels are at most perfectly correlated (so the variance of
-        // their mean is at most the mean of their variances).
-        let ref_var = |pixels: usize, mean_var: f64| {
-            if photon_reference { 0.0 } else { mean_var / pixels as f64 }
+        let what = format!("{name} whole-image mean of channel {}", ["R", "G", "B"][c]);
+        let pixels = (w * h) as usize - from;
+        tiles.push((what, d, allowance, factor, ref_var(pixels, channel_var[c])));
+    }
+    let across = w.div_ceil(tile);
+    for (k, &rb) in ref_bias.iter().enumerate() {
+        let (x0, y0) = ((k as u32 % across) * tile, (k as u32 / across) * tile);
+        if y0 < case.first_row {
+            continue;
+        }
+        let d: Vec<f64> = diffs.iter().map(|t| t[k]).collect();
+        let b = biases.iter().map(|t| t[k]).sum::<f64>() / seeds as f64;
+        let allowance = if case.bias_allowance {
+            haze::lab::converge::FIRST_ORDER_BIAS * (b.abs() + rb.abs())
+        } else {
+            0.0
         };
-        let variance = reference.variance_layer.as_deref().unwrap_or(&zero);
-        let tile_var = tile_means(w, h, variance, tile);
-        let channel_var = channel_means(&variance[from..]);
-        let (mut diffs, mut biases) = (Vec::new(), Vec::new());
-        let (mut channel_diffs, mut channel_biases) = (Vec::new(), Vec::new());
-        for seed in 1..=seeds {
-            let mut s = RenderSettings {
-                integrator: case.integrator,
-                iterations: Some(ITERATIONS),
-                photons: case.photons,
-                seed,
-                ..scene.settings.clone()
-            };
-            (case.overrides)(&mut s);
-            let image = haze::render(&scene, &s, &mut Silent, &AtomicBool::new(false)).unwrap();
-            let d: Vec<[f32; 3]> = image
-                .pixels
-                .iter()
-                .zip(&reference.pixels)
-                .map(|(a, b)| [0, 1, 2].map(|c| a[c] - b[c]))
-                .collect();
-            diffs.push(tile_means(w, h, &d, tile));
-            let bias = image.bias.as_deref().unwrap_or(&zero);
-            biases.push(tile_means(w, h, bias, tile));
-            channel_diffs.push(channel_means(&d[from..]));
-            channel_biases.push(channel_means(&bias[from..]));
-        }
-        for c in 0..3 {
-            let d: Vec<f64> = channel_diffs.iter().map(|m| m[c]).collect();
-            let b = channel_biases.iter().map(|m| m[c]).sum::<f64>() / seeds as f64;
-            let allowance = if case.bias_allowance {
-                haze::lab::converge::FIRST_ORDER_BIAS * (b.abs() + ref_channel_bias[c].abs())
-            } else {
-                0.0
-            };
-            let what = format!("{name} whole-image mean of channel {}", ["R", "G", "B"][c]);
-            let pixels = (w * h) as usize - from;
-            tiles.push((what, d, allowance, factor, ref_var(pixels, channel_var[c])));
-        }
-        let across = w.div_ceil(tile);
-        for (k, &rb) in ref_bias.iter().enumerate() {
-            let (x0, y0) = ((k as u32 % across) * tile, (k as u32 / across) * tile);
-            if y0 < case.first_row {
-                continue;
-            }
-            let d: Vec<f64> = diffs.iter().map(|t| t[k]).collect();
-            let b = biases.iter().map(|t| t[k]).sum::<f64>() / seeds as f64;
-            let allowance = if case.bias_allowance {
-                haze::lab::converge::FIRST_ORDER_BIAS * (b.abs() + rb.abs())
-            } else {
-                0.0
-            };
-            let pixels = (tile.min(w - x0) * tile.min(h - y0)) as usize;
-            let v = ref_var(pixels, tile_var[k]);
-            tiles.push((format!("{name} tile ({x0}, {y0})"), d, allowance, factor, v));
-        }
+        let pixels = (tile.min(w - x0) * tile.min(h - y0)) as usize;
+        let v = ref_var(pixels, tile_var[k]);
+        tiles.push((format!("{name} tile ({x0}, {y0})"), d, allowance, factor, v));
     }
     tiles
 }
