@@ -16,7 +16,9 @@ use crate::error::{Error, Result};
 use crate::estimate::kernel::Kernel;
 use crate::estimate::radius::radius;
 use crate::scene::Scene;
-use crate::settings::{Integrator, PhotonGuiding, Progression, RenderSettings, VolumeEstimate};
+use crate::settings::{
+    Integrator, PhotonGuiding, Progression, RenderSettings, Techniques, VolumeEstimate,
+};
 
 /// The smallest initial radius accepted, relative to the scene's bounding-box diagonal: below it
 /// positions in f32 cannot resolve the kernel and the photon density needed is absurd, so the
@@ -91,6 +93,8 @@ pub(crate) struct Plan {
     pub volume: Schedule,
     /// Keep each technique's contribution (the combined integrator).
     pub techniques: bool,
+    /// Count only these techniques, each with weight 1 (the combined integrator).
+    pub only: Option<Techniques>,
 }
 
 impl Plan {
@@ -137,6 +141,11 @@ impl Plan {
                 "techniques: only the combined integrator (integrator = \"combined\") weighs techniques against each other".into(),
             ));
         }
+        if settings.only.is_some() && method != MethodKind::Combined {
+            return Err(Error::Settings(
+                "only: only the combined integrator (integrator = \"combined\") has techniques to choose from".into(),
+            ));
+        }
         let hybrid = settings.integrator == Integrator::Hybrid;
         Ok(Self {
             method,
@@ -160,6 +169,7 @@ impl Plan {
             surface,
             volume,
             techniques: settings.techniques,
+            only: settings.only,
         })
     }
 

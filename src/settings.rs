@@ -108,6 +108,85 @@ choices! {
     }
 }
 
+choices! {
+    /// A technique of the combined integrator, for `only`.
+    pub enum Technique ("technique") {
+        /// The eye path reaches an area light.
+        Hit = "hit",
+        /// Next-event estimation at an eye vertex.
+        Nee = "nee",
+        /// Merging with surface photons.
+        Surface = "surface",
+        /// Point–point merging at an eye collision in a medium.
+        Point = "point",
+        /// Point–beam merging along an eye segment in a medium (the beam radiance estimate).
+        Beam = "beam",
+    }
+}
+
+/// A set of the combined integrator's techniques, written with `+` between them
+/// (`surface+point`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
+pub struct Techniques(u8);
+
+impl Techniques {
+    /// The set of `list`.
+    pub fn of(list: &[Technique]) -> Self {
+        Self(list.iter().fold(0, |bits, &t| bits | Self::bit(t)))
+    }
+
+    fn bit(t: Technique) -> u8 {
+        1 << Technique::ALL.iter().position(|&a| a == t).unwrap_or(0)
+    }
+
+    /// Whether `t` is in the set.
+    pub fn contains(self, t: Technique) -> bool {
+        self.0 & Self::bit(t) != 0
+    }
+
+    /// The techniques in the set, in [`Technique::ALL`]'s order.
+    pub fn iter(self) -> impl Iterator<Item = Technique> {
+        Technique::ALL.iter().copied().filter(move |&t| self.contains(t))
+    }
+}
+
+impl std::fmt::Display for Techniques {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names: Vec<&str> = self.iter().map(Technique::name).collect();
+        f.write_str(&names.join("+"))
+    }
+}
+
+impl std::str::FromStr for Techniques {
+    type Err = String;
+    /// Parses `T+T+…`, each T a [`Technique`]'s name, at least one, none twice.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let mut set = Techniques(0);
+        for name in s.split('+').map(str::trim) {
+            let t: Technique = name.parse()?;
+            if set.contains(t) {
+                return Err(format!("technique `{t}` is named twice in `{s}`"));
+            }
+            set.0 |= Self::bit(t);
+        }
+        Ok(set)
+    }
+}
+
+impl From<Techniques> for String {
+    fn from(t: Techniques) -> String {
+        t.to_string()
+    }
+}
+
+impl TryFrom<String> for Techniques {
+    type Error = String;
+    fn try_from(s: String) -> Result<Self, String> {
+        s.parse()
+    }
+}
+
 /// Most light paths per iteration: each stores photons of 48 bytes, several per path.
 pub const MAX_PHOTONS: u64 = 50_000_000;
 
@@ -460,6 +539,16 @@ render_settings! {
     /// a render in one process only: a range or a resumed render refuses it.
     [long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true"]
     techniques: bool = false, any;
+
+    /// With the combined integrator, count only these techniques (`hit`, `nee`, `surface`,
+    /// `point`, `beam`, joined by `+`), each with weight 1: one technique alone, to check it
+    /// against a reference. A set whose techniques sample disjoint sets of paths that together
+    /// hold every path renders the whole image: `hit` (area lights), `nee` (when no light is
+    /// seen directly or through glass), `surface+point` or `surface+beam` (when none is seen at
+    /// all); any other set leaves light out or counts it twice. Emitting media's light, which
+    /// only the eye paths gather, is always counted.
+    [long, value_name = "T+T"]
+    only: Techniques, optional = None, any;
 }
 
 /// A rejected setting: the key (as in the scene file) and the reason.

@@ -5,7 +5,8 @@ For each scene: a long haze path-traced reference; a long Mitsuba volpath render
 whose per-region agreement with the reference is reported with standard errors; then, at equal
 wall time on the same number of threads, the relative RMSE against the reference of Mitsuba
 volpath (in each variant asked for: llvm_ad_rgb, the one Mitsuba's CPU users pick, and
-scalar_rgb), haze path, haze photons and haze hybrid. Writes a Markdown table to stdout.
+scalar_rgb) and of haze's integrators (path, photons, hybrid, combined). Writes a Markdown table
+to stdout.
 
 Mitsuba renders in chunks of at most 16 samples per pixel (one mi.render of thousands of samples
 does not fit in memory with the LLVM variant), each chunk with a seed of its own, averaged. Its
@@ -213,6 +214,37 @@ def shape_dict(mi, s, materials, media):
     return [lamp, body]
 
 
+def world_box(to_world, mi):
+    """The axis-aligned world bounds of the unit cube [-1, 1]³ (a `cube`) or [0, 1]³ (a grid)
+    under `to_world`, given the cube's two corner coordinates."""
+    def bounds(lo, hi):
+        pts = np.array([np.array(to_world @ mi.ScalarPoint3f(x, y, z))
+                        for x in (lo, hi) for y in (lo, hi) for z in (lo, hi)])
+        return pts.min(axis=0), pts.max(axis=0)
+    return bounds
+
+
+def fit_container(mi, shape, medium):
+    """A null-BSDF box around a grid medium, shrunk to the grid's bounds (padding voxel
+    included) where the box is larger: exact, since the density is zero outside the grid, and
+    needed because Mitsuba 3 darkens rays that cross a dense grid's container outside the grid
+    (docs/mitsuba/README.md, "cumulus"). Boxes and grids that are rotated keep the box."""
+    grid = medium.get("sigma_t", {})
+    if medium.get("type") != "heterogeneous" or "to_world" not in grid:
+        return shape
+    box_lo, box_hi = world_box(shape["to_world"], mi)(-1, 1)
+    g_lo, g_hi = world_box(grid["to_world"], mi)(0, 1)
+    rotated = any(abs(np.array(t.matrix)[i][j]) > 1e-9
+                  for t in (shape["to_world"], grid["to_world"]) for i in range(3) for j in range(3)
+                  if i != j)
+    lo, hi = np.maximum(box_lo, g_lo), np.minimum(box_hi, g_hi)
+    if rotated or np.any(hi <= lo):
+        return shape
+    T = mi.ScalarTransform4f
+    to_world = T().translate(((lo + hi) / 2).tolist()) @ T().scale(((hi - lo) / 2).tolist())
+    return dict(shape, to_world=to_world)
+
+
 def up_for(position, look_at):
     """An up vector not parallel to the view direction."""
     v = np.subtract(look_at, position)
@@ -243,6 +275,9 @@ def light_dict(mi, light, media):
     return d
 
 
+args_fit_containers = True
+
+
 def mitsuba_scene(mi, path, res, max_bounces, tmp):
     with open(path, "rb") as f:
         s = tomllib.load(f)
@@ -267,6 +302,8 @@ def mitsuba_scene(mi, path, res, max_bounces, tmp):
             if around:
                 sh = dict(sh, exterior=around)
         for k, part in enumerate(shape_dict(mi, sh, s["materials"], media)):
+            if sh["type"] == "box" and "interior" in sh and args_fit_containers:
+                part = fit_container(mi, part, media[sh["interior"]])
             d[f"shape{i}_{k}"] = part
     for i, light in enumerate(s.get("lights", [])):
         d[f"light{i}"] = light_dict(mi, light, media)
@@ -330,7 +367,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("scenes", nargs="*", default=["cornell-fog", "spotlight-fog",
                                                    "cornell-cloud-homogeneous", "cornell-cloud",
-                                                   "vdb-cloud"])
+                                                   "vdb-cloud", "cumulus"])
     ap.add_argument("--scale", type=int, default=4,
                     help="render at 1/SCALE of each scene's resolution, with 1/SCALE² of its photons")
     ap.add_argument("--resolution", metavar="WxH",
@@ -350,7 +387,15 @@ def main():
                     help="keep every seed's per-region means (NAME-regions.npz) and the equal-time images")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--haze", default=os.path.join(ROOT, "target", "release", "haze"))
+    ap.add_argument("--integrators", default="path,photons,hybrid,combined",
+                    help="haze integrators timed at equal time, comma-separated")
+    ap.add_argument("--skip-agreement", action="store_true",
+                    help="skip the long Mitsuba renders of the agreement check")
+    ap.add_argument("--keep-containers", action="store_true",
+                    help="do not shrink a grid's null-BSDF container to the grid's bounds")
     args = ap.parse_args()
+    global args_fit_containers
+    args_fit_containers = not args.keep_containers
     variants = [v for v in args.variants.split(",") if v]
 
     if any(v.startswith("llvm") for v in variants):
@@ -363,8 +408,10 @@ def main():
     import mitsuba as mi
 
     cols = " | ".join(f"Mitsuba volpath {v}" for v in variants)
-    print(f"| scene | {cols} | haze path | haze photons | haze hybrid | Mitsuba − haze reference (regions, in s.e.) |")
-    print("|---|" + "---|" * (len(variants) + 4))
+    integrators = [i for i in args.integrators.split(",") if i]
+    hcols = " | ".join(f"haze {i}" for i in integrators)
+    print(f"| scene | {cols} | {hcols} | Mitsuba − haze reference (regions, in s.e.) |")
+    print("|---|" + "---|" * (len(variants) + len(integrators) + 1))
     for name in args.scenes:
         with tempfile.TemporaryDirectory() as tmp:
             toml = name if name.endswith(".toml") else os.path.join(ROOT, "scenes", f"{name}.toml")
@@ -408,7 +455,7 @@ def compare_scene(args, mi, name, scene_path, variants, tmp):
         t0 = time.time()
         mitsuba_render(mi, scene, 2 * CHUNK, 2)
         rate = 2 * CHUNK / (time.time() - t0)
-        if i == 0:
+        if i == 0 and not args.skip_agreement:
             agree = agreement(args, mi, name, scene, rate, refs, ref)
             if args.agreement_only:
                 break
@@ -420,10 +467,11 @@ def compare_scene(args, mi, name, scene_path, variants, tmp):
         if args.save:
             np.save(os.path.join(args.save, f"{name}-mitsuba-{variant}.npy"), mts)
     if args.agreement_only:
-        print(f"| {name} | " + " | " * (len(variants) + 2) + f" | {agree} |")
+        print(f"| {name} | " + " | " * (len(variants) + len(args.integrators.split(",")) - 1)
+              + f" | {agree} |")
         sys.stdout.flush()
         return
-    for integ in ("path", "photons", "hybrid"):
+    for integ in [i for i in args.integrators.split(",") if i]:
         img = haze_render(args.haze, scene_path, res, args.seconds, integ, 7,
                           os.path.join(tmp, f"{integ}.exr"), args.threads, photons)
         errs.append(rel_rmse(img, ref, ref_var))

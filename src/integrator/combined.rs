@@ -34,6 +34,7 @@ use crate::plan::{Plan, Radii};
 use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
+use crate::settings::{Technique, Techniques};
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use std::sync::atomic::{AtomicBool, AtomicU64};
@@ -64,7 +65,8 @@ struct Layers {
 /// segments (every pixel's value less the weighted techniques, so that the layers sum to it).
 pub(crate) const TECHNIQUES: [&str; 6] = ["hit", "nee", "surface", "point", "beam", "emitted"];
 
-/// Indices of the weighted techniques in a path's tally ([`CombinedEye::tally`]).
+/// Indices of the weighted techniques in a path's tally ([`CombinedEye::tally`]), as in
+/// [`Technique::ALL`].
 const HIT: usize = 0;
 const NEE: usize = 1;
 const SURFACE: usize = 2;
@@ -121,6 +123,9 @@ impl Combined {
         let radii = self.plan.radii(i);
         let kernels = Kernels::new(self.plan.paths, radii.surface, radii.volume, MERGE_EVERYWHERE);
         let clock = Instant::now();
+        let only = self.plan.only;
+        let merging = [Technique::Surface, Technique::Point, Technique::Beam];
+        let merges = only.is_none_or(|o| merging.iter().any(|&t| o.contains(t)));
         let pass = PhotonPass {
             seed: self.plan.seed,
             iteration: i,
@@ -132,7 +137,8 @@ impl Combined {
             record: false,
             mis: Some(kernels),
         };
-        if !trace_photons(scene, &self.lights, None, &pass, stop, &mut self.photons) {
+        // With `only` the eye's techniques, no photon is gathered: none is traced.
+        if merges && !trace_photons(scene, &self.lights, None, &pass, stop, &mut self.photons) {
             return None;
         }
         times.photon_trace = super::ppm::lap(clock);
@@ -156,6 +162,12 @@ impl Combined {
             iteration: i,
             max_bounces: self.plan.max_bounces,
             beyond_last: self.lights.has_area_lights() || scene.has_emissive_media(),
+            only,
+            // With only merges, and merges at the first vertex only, nothing deeper counts
+            // (but the light of emitting media).
+            ends_at_merge: !kernels.deep
+                && !scene.has_emissive_media()
+                && only.is_some_and(|o| !o.contains(Technique::Hit) && !o.contains(Technique::Nee)),
         };
         let layers = self.plan.techniques.then_some(&mut self.layers);
         if !camera_pass(layers, scene, &ctx, stop, nonfinite, frame) {
@@ -240,9 +252,26 @@ struct Context<'a> {
     /// Whether a path goes on after its last event: to reach an area light (whose weight
     /// assumes the eye can) or an emitting medium.
     beyond_last: bool,
+    /// Count only these techniques, with weight 1 (`RenderSettings::only`).
+    only: Option<Techniques>,
+    /// A path ends at the vertex it merges at.
+    ends_at_merge: bool,
 }
 
 impl Context<'_> {
+    /// Whether technique `k` (an index of the tally) counts.
+    fn counts(&self, k: usize) -> bool {
+        self.only.is_none_or(|o| o.contains(Technique::ALL[k]))
+    }
+
+    /// Technique `k`'s weight, given its MIS weight `w`: that, or 1 with `only`.
+    fn w(&self, k: usize, w: f32) -> f32 {
+        match self.only {
+            None => w,
+            Some(o) => f32::from(u8::from(o.contains(Technique::ALL[k]))),
+        }
+    }
+
     /// Radiance along the eye path of pixel (x, y), with the kernel bias of its merges, and
     /// what each weighted technique contributed.
     fn pixel(&self, x: u32, y: u32) -> (Estimate, Tally) {
@@ -350,13 +379,16 @@ impl CombinedEye<'_> {
     /// next-event estimation from the vertex before and the merges.
     fn emission_weighted(&self, path: &EyePath, hit: &Hit, le: Rgb) -> Rgb {
         let ctx = self.ctx;
+        if !ctx.counts(HIT) {
+            return Rgb::ZERO;
+        }
         let Some((li, _)) = ctx.lights.area_light(hit.tag) else { return le };
         let wo = -path.ray.d;
         let (e, _) = emitted(ctx.lights.emission_prob(li), &ctx.scene.lights[li], hit.ng, wo);
         let nee = self.from.as_ref().map_or(0.0, |(r, p_eye)| {
             ctx.lights.pdf_li(&ctx.scene.lights, hit.tag, r, hit.p, e.cos) / p_eye
         });
-        le * hit_weight(nee, e, self.carry)
+        le * ctx.w(HIT, hit_weight(nee, e, self.carry))
     }
 
     /// Whether the path merges at its next vertex (and along the segment to it).
@@ -376,7 +408,7 @@ impl CombinedEye<'_> {
     /// than the eye's, the merges' weights there are small, and the gathers cost most of a
     /// path's time.
     fn gather_chance(&self, path: &mut EyePath, bound: f32) -> Option<f32> {
-        if bound >= MERGE_ROULETTE {
+        if bound >= MERGE_ROULETTE || self.ctx.only.is_some() {
             return Some(1.0);
         }
         let q = bound / MERGE_ROULETTE;
@@ -408,7 +440,7 @@ impl CombinedEye<'_> {
         tr: &SegmentTransmittance,
     ) {
         let ctx = self.ctx;
-        if ctx.beams.len() == 0 || !self.merges() {
+        if ctx.beams.len() == 0 || !self.merges() || !ctx.counts(BEAM) {
             return;
         }
         let (o, d) = (path.ray.o, path.ray.d);
@@ -433,7 +465,7 @@ impl CombinedEye<'_> {
             let v = phase.eval(ph.d, -d);
             let total = merge_total(rec.light, v, kp + kb, carry, v, rec.sigma);
             // The beam map stores β·σ_s.
-            let f = ph.beta * tr.at(t) * (v * weight(kb, total));
+            let f = ph.beta * tr.at(t) * (v * ctx.w(BEAM, weight(kb, total)));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 2);
             sum += f * k;
             inner += f * k_inner;
@@ -482,7 +514,7 @@ impl CombinedEye<'_> {
     /// Point–point: the volume photons within the volume radius of the collision `at`.
     fn points(&mut self, path: &mut EyePath, id: u32, x: Vec3, at: &InMedium) {
         let ctx = self.ctx;
-        if !self.merges() {
+        if !self.merges() || !ctx.counts(POINT) {
             return;
         }
         let (phase, bounces, carry, d) = (at.m.phase(), self.bounces(path), self.carry, at.d);
@@ -501,7 +533,7 @@ impl CombinedEye<'_> {
             // As in `beam`: one value of the phase function is all three densities.
             let v = phase.eval(ph.d, -d);
             let total = merge_total(rec.light, v, kp + kb, carry, v, at.sigma);
-            let f = ph.beta * (v * weight(kp, total));
+            let f = ph.beta * (v * ctx.w(POINT, weight(kp, total)));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 3);
             sum += f * k;
             inner += f * k_inner;
@@ -514,7 +546,7 @@ impl CombinedEye<'_> {
     /// with cosine `gamma_in`.
     fn surface(&mut self, path: &mut EyePath, p: Vec3, n: Vec3, at: &AtSurface, gamma_in: f32) {
         let ctx = self.ctx;
-        if !self.merges() {
+        if !self.merges() || !ctx.counts(SURFACE) {
             return;
         }
         let (bounces, carry, ks) = (self.bounces(path), self.carry, ctx.kernels.surface);
@@ -534,7 +566,7 @@ impl CombinedEye<'_> {
             }
             let rec = &ctx.photons.surface_mis[ctx.surface.origin(slot)];
             let total = merge_total(rec.light, at.p_eye(rec.wi), ks, carry, eye_side, 1.0);
-            let w = weight(ks, total);
+            let w = ctx.w(SURFACE, weight(ks, total));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 2);
             sum += ph.beta * (k * w);
             inner += ph.beta * (k_inner * w);
@@ -558,6 +590,9 @@ impl CombinedEye<'_> {
         at: &impl Scatterer,
     ) -> Rgb {
         let (ctx, s) = (self.ctx, &mut path.s);
+        if !ctx.counts(NEE) {
+            return Rgb::ZERO;
+        }
         let Some((li, p_pick)) = ctx.lights.pick(r, s.next_f32()) else { return Rgb::ZERO };
         let light = &ctx.scene.lights[li];
         let point = light.sample_point(s);
@@ -577,7 +612,7 @@ impl CombinedEye<'_> {
         let nee = nee_density(light, p_pick, pos, x0, r.p);
         let hit = if e.cos > 0.0 { at.p_eye(ls.wi) * e.cos / nee } else { 0.0 };
         let (gamma, p_light) = (at.gamma(ls.wi), at.p_light(ls.wi));
-        let w = nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in);
+        let w = ctx.w(NEE, nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in));
         if w <= 0.0 {
             return Rgb::ZERO;
         }
@@ -633,7 +668,7 @@ impl EyeVisitor for CombinedEye<'_> {
         let medium = path.ray.medium;
         let l = self.nee(path, &r, medium, c, at.sigma, &at);
         self.count(path, path.beta * l, NEE);
-        if path.last() && !self.ctx.beyond_last {
+        if path.last() && !self.ctx.beyond_last || self.ctx.ends_at_merge {
             return Next::Stop;
         }
         let ps = m.phase().sample(d, path.s.next_2d());
@@ -667,7 +702,7 @@ impl EyeVisitor for CombinedEye<'_> {
         let medium = path.ray.medium;
         let l = self.nee(path, &r, medium, c, gamma_in, &at);
         self.count(path, path.beta * l, NEE);
-        if path.last() && !self.ctx.beyond_last {
+        if path.last() && !self.ctx.beyond_last || self.ctx.ends_at_merge {
             return Next::Stop;
         }
         let u = path.s.next_2d();
@@ -691,5 +726,27 @@ impl EyeVisitor for CombinedEye<'_> {
 
     fn survive(&mut self, path: &mut EyePath) -> bool {
         roulette(&mut path.beta, path.depth, &mut path.s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tally's indices, the layers' names and `only`'s techniques are one order.
+    #[test]
+    fn the_techniques_are_listed_in_one_order() {
+        let names: Vec<&str> = Technique::ALL.iter().map(|t| t.name()).collect();
+        assert_eq!(names, TECHNIQUES[..5]);
+        assert_eq!([HIT, NEE, SURFACE, POINT, BEAM], [0, 1, 2, 3, 4]);
+        let set: Techniques = "surface+point".parse().unwrap();
+        let ctx_counts = |k: usize| set.contains(Technique::ALL[k]);
+        assert_eq!(
+            [HIT, NEE, SURFACE, POINT, BEAM].map(ctx_counts),
+            [false, false, true, true, false]
+        );
+        assert_eq!(set.to_string(), "surface+point");
+        assert!("surface+surface".parse::<Techniques>().is_err());
+        assert!("surface+points".parse::<Techniques>().unwrap_err().contains("\"point\""));
     }
 }

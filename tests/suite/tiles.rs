@@ -169,7 +169,7 @@ fn a_target_region_measures_the_target_over_its_pixels() {
     let s = RenderSettings {
         iterations: Some(1_000_000),
         time_limit: None,
-        target_error: Some(0.1),
+        target_error: Some(0.2),
         target_region: Some(region),
         photons: 2_000,
         seed: 5,
@@ -180,7 +180,7 @@ fn a_target_region_measures_the_target_over_its_pixels() {
     let n = part.info.iterations;
     assert!(n > haze::MIN_TARGET_ITERATIONS, "{n} iterations: the region's target decided nothing");
     let e = part.film.error_estimate(0.95, Some(region)).unwrap();
-    assert!(e.upper <= 0.1, "{e:?} after {n}");
+    assert!(e.upper <= 0.2, "{e:?} after {n}");
     // Without the region the same target stops elsewhere: the region decided.
     let whole = RenderSettings { target_region: None, ..s.clone() };
     let whole =
@@ -190,7 +190,7 @@ fn a_target_region_measures_the_target_over_its_pixels() {
     let earlier =
         haze::render_partial(&scene, &before, haze::Start::At(1), &mut Silent, &stop).unwrap();
     let e = earlier.film.error_estimate(0.95, Some(region)).unwrap();
-    assert!(n - 1 < haze::MIN_TARGET_ITERATIONS || e.upper > 0.1, "{e:?} after {}", n - 1);
+    assert!(n - 1 < haze::MIN_TARGET_ITERATIONS || e.upper > 0.2, "{e:?} after {}", n - 1);
     let outside = haze::lab::converge::Region { x0: 0, y0: 0, x1: 17, y1: 4 };
     let err = haze::render_partial(
         &scene,
