@@ -137,7 +137,7 @@ impl Techniques {
     }
 
     fn bit(t: Technique) -> u8 {
-        1 << Technique::ALL.iter().position(|&a| a == t).unwrap_or(0)
+        1 << t as u8
     }
 
     /// Whether `t` is in the set.

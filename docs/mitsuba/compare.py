@@ -214,14 +214,12 @@ def shape_dict(mi, s, materials, media):
     return [lamp, body]
 
 
-def world_box(to_world, mi):
-    """The axis-aligned world bounds of the unit cube [-1, 1]³ (a `cube`) or [0, 1]³ (a grid)
-    under `to_world`, given the cube's two corner coordinates."""
-    def bounds(lo, hi):
-        pts = np.array([np.array(to_world @ mi.ScalarPoint3f(x, y, z))
-                        for x in (lo, hi) for y in (lo, hi) for z in (lo, hi)])
-        return pts.min(axis=0), pts.max(axis=0)
-    return bounds
+def world_box(mi, to_world, lo, hi):
+    """The axis-aligned world bounds of the cube [lo, hi]³ under `to_world` ([-1, 1]³ for a
+    `cube` shape, [0, 1]³ for a grid)."""
+    pts = np.array([np.array(to_world @ mi.ScalarPoint3f(x, y, z))
+                    for x in (lo, hi) for y in (lo, hi) for z in (lo, hi)])
+    return pts.min(axis=0), pts.max(axis=0)
 
 
 def fit_container(mi, shape, medium):
@@ -232,8 +230,8 @@ def fit_container(mi, shape, medium):
     grid = medium.get("sigma_t", {})
     if medium.get("type") != "heterogeneous" or "to_world" not in grid:
         return shape
-    box_lo, box_hi = world_box(shape["to_world"], mi)(-1, 1)
-    g_lo, g_hi = world_box(grid["to_world"], mi)(0, 1)
+    box_lo, box_hi = world_box(mi, shape["to_world"], -1, 1)
+    g_lo, g_hi = world_box(mi, grid["to_world"], 0, 1)
     rotated = any(abs(np.array(t.matrix)[i][j]) > 1e-9
                   for t in (shape["to_world"], grid["to_world"]) for i in range(3) for j in range(3)
                   if i != j)
@@ -275,10 +273,7 @@ def light_dict(mi, light, media):
     return d
 
 
-args_fit_containers = True
-
-
-def mitsuba_scene(mi, path, res, max_bounces, tmp):
+def mitsuba_scene(mi, path, res, max_bounces, tmp, fit_containers=True):
     with open(path, "rb") as f:
         s = tomllib.load(f)
     scene_dir = os.path.dirname(os.path.abspath(path))
@@ -302,7 +297,7 @@ def mitsuba_scene(mi, path, res, max_bounces, tmp):
             if around:
                 sh = dict(sh, exterior=around)
         for k, part in enumerate(shape_dict(mi, sh, s["materials"], media)):
-            if sh["type"] == "box" and "interior" in sh and args_fit_containers:
+            if sh["type"] == "box" and "interior" in sh and fit_containers:
                 part = fit_container(mi, part, media[sh["interior"]])
             d[f"shape{i}_{k}"] = part
     for i, light in enumerate(s.get("lights", [])):
@@ -404,8 +399,7 @@ def main():
     ap.add_argument("--keep-containers", action="store_true",
                     help="do not shrink a grid's null-BSDF container to the grid's bounds")
     args = ap.parse_args()
-    global args_fit_containers
-    args_fit_containers = not args.keep_containers
+    args.integrators = [i for i in args.integrators.split(",") if i]
     variants = [v for v in args.variants.split(",") if v]
 
     if any(v.startswith("llvm") for v in variants):
@@ -418,10 +412,9 @@ def main():
     import mitsuba as mi
 
     cols = " | ".join(f"Mitsuba volpath {v}" for v in variants)
-    integrators = [i for i in args.integrators.split(",") if i]
-    hcols = " | ".join(f"haze {i}" for i in integrators)
+    hcols = " | ".join(f"haze {i}" for i in args.integrators)
     print(f"| scene | {cols} | {hcols} | Mitsuba − haze reference (regions, in s.e.) |")
-    print("|---|" + "---|" * (len(variants) + len(integrators) + 1))
+    print("|---|" + "---|" * (len(variants) + len(args.integrators) + 1))
     for name in args.scenes:
         with tempfile.TemporaryDirectory() as tmp:
             toml = name if name.endswith(".toml") else os.path.join(ROOT, "scenes", f"{name}.toml")
@@ -462,7 +455,8 @@ def compare_scene(args, mi, name, scene_path, variants, tmp):
         np.save(os.path.join(args.save, f"{name}-reference-var.npy"), ref_var)
     for i, variant in enumerate(variants):
         mi.set_variant(variant)
-        scene = mi.load_dict(mitsuba_scene(mi, scene_path, res, bounces, tmp), parallel=False)
+        scene = mi.load_dict(mitsuba_scene(mi, scene_path, res, bounces, tmp,
+                                         not args.keep_containers), parallel=False)
         # JIT warm-up (not timed), then Mitsuba's rate on two chunks.
         mitsuba_render(mi, scene, CHUNK, 1)
         t0 = time.time()
@@ -481,11 +475,10 @@ def compare_scene(args, mi, name, scene_path, variants, tmp):
         if args.save:
             np.save(os.path.join(args.save, f"{name}-mitsuba-{variant}.npy"), mts)
     if args.agreement_only:
-        print(f"| {name} | " + " | " * (len(variants) + len(args.integrators.split(",")) - 1)
-              + f" | {agree} |")
+        print(f"| {name} | " + " | " * (len(variants) + len(args.integrators) - 1) + f" | {agree} |")
         sys.stdout.flush()
         return
-    for integ in [i for i in args.integrators.split(",") if i]:
+    for integ in args.integrators:
         img = haze_render(args.haze, scene_path, res, args.seconds, integ, 7,
                           os.path.join(tmp, f"{integ}.exr"), args.threads, photons)
         errs.append(rel_rmse(img, ref, ref_var))

@@ -52,29 +52,26 @@ pub(crate) struct Combined {
     layers: Layers,
 }
 
-/// Each technique's contribution, summed over the iterations, per pixel ([`TECHNIQUES`]
-/// layers in turn), and the iterations summed.
+/// Each technique's contribution, summed over the iterations, per pixel ([`LAYERS`] layers in
+/// turn), and the iterations summed.
 #[derive(Default)]
 struct Layers {
     sums: Vec<[f64; 3]>,
     iterations: u64,
 }
 
-/// The techniques whose contributions `--techniques` writes, in the order of the layers; the
-/// last, `emitted`, is the light of emitting media that the eye paths gather along their
-/// segments (every pixel's value less the weighted techniques, so that the layers sum to it).
-pub(crate) const TECHNIQUES: [&str; 6] = ["hit", "nee", "surface", "point", "beam", "emitted"];
+/// The layers `--techniques` writes: each weighted technique of [`Technique::ALL`], and then
+/// the light of emitting media that the eye paths gather along their segments (every pixel's
+/// value less the weighted techniques, so that the layers sum to it).
+const LAYERS: usize = Technique::ALL.len() + 1;
 
-/// Indices of the weighted techniques in a path's tally ([`CombinedEye::tally`]), as in
-/// [`Technique::ALL`].
-const HIT: usize = 0;
-const NEE: usize = 1;
-const SURFACE: usize = 2;
-const POINT: usize = 3;
-const BEAM: usize = 4;
+/// The name of layer `k`.
+fn layer_name(k: usize) -> &'static str {
+    Technique::ALL.get(k).map_or("emitted", |t| t.name())
+}
 
-/// One path's contribution by weighted technique.
-type Tally = [Rgb; 5];
+/// One path's contribution by weighted technique, indexed by `Technique as usize`.
+type Tally = [Rgb; Technique::ALL.len()];
 
 impl Combined {
     pub(crate) fn new(scene: &Scene, plan: &Plan) -> Self {
@@ -124,8 +121,9 @@ impl Combined {
         let kernels = Kernels::new(self.plan.paths, radii.surface, radii.volume, MERGE_EVERYWHERE);
         let clock = Instant::now();
         let only = self.plan.only;
-        let merging = [Technique::Surface, Technique::Point, Technique::Beam];
-        let merges = only.is_none_or(|o| merging.iter().any(|&t| o.contains(t)));
+        let counts = |t| only.is_none_or(|o: Techniques| o.contains(t));
+        let merges =
+            [Technique::Surface, Technique::Point, Technique::Beam].into_iter().any(counts);
         let pass = PhotonPass {
             seed: self.plan.seed,
             iteration: i,
@@ -167,7 +165,8 @@ impl Combined {
             // (but the light of emitting media).
             ends_at_merge: !kernels.deep
                 && !scene.has_emissive_media()
-                && only.is_some_and(|o| !o.contains(Technique::Hit) && !o.contains(Technique::Nee)),
+                && !counts(Technique::Hit)
+                && !counts(Technique::Nee),
         };
         let layers = self.plan.techniques.then_some(&mut self.layers);
         if !camera_pass(layers, scene, &ctx, stop, nonfinite, frame) {
@@ -178,18 +177,18 @@ impl Combined {
     }
 
     /// Each technique's contribution to the image so far (the mean over the iterations), named
-    /// as in [`TECHNIQUES`]: with `Plan::techniques` only.
+    /// as in [`layer_name`]: with `Plan::techniques` only.
     pub(crate) fn technique_layers(&self) -> Option<Vec<(String, Vec<[f32; 3]>)>> {
         if !self.plan.techniques || self.layers.iterations == 0 {
             return None;
         }
-        let n = self.layers.sums.len() / TECHNIQUES.len();
+        let n = self.layers.sums.len() / LAYERS;
         let inv = 1.0 / self.layers.iterations as f64;
         let layer = |k: usize| {
             let sums = &self.layers.sums[k * n..(k + 1) * n];
             sums.iter().map(|s| s.map(|c| (c * inv) as f32)).collect()
         };
-        Some(TECHNIQUES.iter().enumerate().map(|(k, name)| (name.to_string(), layer(k))).collect())
+        Some((0..LAYERS).map(|k| (layer_name(k).to_string(), layer(k))).collect())
     }
 
     /// The volume photons for point queries and for beam queries, at radius `r`.
@@ -221,7 +220,7 @@ fn camera_pass(
         return false;
     }
     let n = frame.value.len();
-    layers.sums.resize(n * TECHNIQUES.len(), [0.0; 3]);
+    layers.sums.resize(n * LAYERS, [0.0; 3]);
     for (i, (tally, value)) in tallies.iter().zip(&frame.value).enumerate() {
         let rest = *value - tally.iter().copied().sum::<Rgb>();
         for (k, v) in tally.iter().chain([&rest]).enumerate() {
@@ -259,17 +258,14 @@ struct Context<'a> {
 }
 
 impl Context<'_> {
-    /// Whether technique `k` (an index of the tally) counts.
-    fn counts(&self, k: usize) -> bool {
-        self.only.is_none_or(|o| o.contains(Technique::ALL[k]))
+    /// Whether technique `t` counts.
+    fn counts(&self, t: Technique) -> bool {
+        self.only.is_none_or(|o| o.contains(t))
     }
 
-    /// Technique `k`'s weight, given its MIS weight `w`: that, or 1 with `only`.
-    fn w(&self, k: usize, w: f32) -> f32 {
-        match self.only {
-            None => w,
-            Some(o) => f32::from(u8::from(o.contains(Technique::ALL[k]))),
-        }
+    /// The weight of a technique that counts, given its MIS weight `w`: that, or 1 with `only`.
+    fn w(&self, w: f32) -> f32 {
+        if self.only.is_some() { 1.0 } else { w }
     }
 
     /// Radiance along the eye path of pixel (x, y), with the kernel bias of its merges, and
@@ -379,7 +375,7 @@ impl CombinedEye<'_> {
     /// next-event estimation from the vertex before and the merges.
     fn emission_weighted(&self, path: &EyePath, hit: &Hit, le: Rgb) -> Rgb {
         let ctx = self.ctx;
-        if !ctx.counts(HIT) {
+        if !ctx.counts(Technique::Hit) {
             return Rgb::ZERO;
         }
         let Some((li, _)) = ctx.lights.area_light(hit.tag) else { return le };
@@ -388,7 +384,7 @@ impl CombinedEye<'_> {
         let nee = self.from.as_ref().map_or(0.0, |(r, p_eye)| {
             ctx.lights.pdf_li(&ctx.scene.lights, hit.tag, r, hit.p, e.cos) / p_eye
         });
-        le * ctx.w(HIT, hit_weight(nee, e, self.carry))
+        le * ctx.w(hit_weight(nee, e, self.carry))
     }
 
     /// Whether the path merges at its next vertex (and along the segment to it).
@@ -415,18 +411,16 @@ impl CombinedEye<'_> {
         (path.s.next_f32() < q).then(|| 1.0 / q)
     }
 
-    /// Adds a merge of technique `k`, weighted by the path's throughput.
-    fn add(&mut self, path: &mut EyePath, e: Estimate, k: usize) {
-        let l = path.beta * e.value;
-        path.l += l;
-        self.tally[k] += l;
+    /// Adds a merge of technique `t`, weighted by the path's throughput.
+    fn add(&mut self, path: &mut EyePath, e: Estimate, t: Technique) {
+        self.count(path, path.beta * e.value, t);
         self.bias += path.beta * e.bias;
     }
 
-    /// Adds radiance `l` of technique `k` to the path.
-    fn count(&mut self, path: &mut EyePath, l: Rgb, k: usize) {
+    /// Adds radiance `l` of technique `t` to the path.
+    fn count(&mut self, path: &mut EyePath, l: Rgb, t: Technique) {
         path.l += l;
-        self.tally[k] += l;
+        self.tally[t as usize] += l;
     }
 
     /// Point–beam: the volume photons along the segment o + t d, 0 < t < `t_max`, in medium
@@ -440,7 +434,7 @@ impl CombinedEye<'_> {
         tr: &SegmentTransmittance,
     ) {
         let ctx = self.ctx;
-        if ctx.beams.len() == 0 || !self.merges() || !ctx.counts(BEAM) {
+        if ctx.beams.len() == 0 || !self.merges() || !ctx.counts(Technique::Beam) {
             return;
         }
         let (o, d) = (path.ray.o, path.ray.d);
@@ -465,13 +459,13 @@ impl CombinedEye<'_> {
             let v = phase.eval(ph.d, -d);
             let total = merge_total(rec.light, v, kp + kb, carry, v, rec.sigma);
             // The beam map stores β·σ_s.
-            let f = ph.beta * tr.at(t) * (v * ctx.w(BEAM, weight(kb, total)));
+            let f = ph.beta * tr.at(t) * (v * ctx.w(weight(kb, total)));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 2);
             sum += f * k;
             inner += f * k_inner;
         });
         let norm = inv_r2 * ctx.gather.inv_paths * chance;
-        self.add(path, Estimate::from_radii(sum * norm, inner * norm), BEAM);
+        self.add(path, Estimate::from_radii(sum * norm, inner * norm), Technique::Beam);
     }
 
     /// Where the path goes on from the segment o + t d, 0 < t < `t_max`, in `m`, of
@@ -514,7 +508,7 @@ impl CombinedEye<'_> {
     /// Point–point: the volume photons within the volume radius of the collision `at`.
     fn points(&mut self, path: &mut EyePath, id: u32, x: Vec3, at: &InMedium) {
         let ctx = self.ctx;
-        if !self.merges() || !ctx.counts(POINT) {
+        if !self.merges() || !ctx.counts(Technique::Point) {
             return;
         }
         let (phase, bounces, carry, d) = (at.m.phase(), self.bounces(path), self.carry, at.d);
@@ -533,20 +527,24 @@ impl CombinedEye<'_> {
             // As in `beam`: one value of the phase function is all three densities.
             let v = phase.eval(ph.d, -d);
             let total = merge_total(rec.light, v, kp + kb, carry, v, at.sigma);
-            let f = ph.beta * (v * ctx.w(POINT, weight(kp, total)));
+            let f = ph.beta * (v * ctx.w(weight(kp, total)));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 3);
             sum += f * k;
             inner += f * k_inner;
         });
         let norm = inv_r2 / radius * ctx.gather.inv_paths * chance;
-        self.add(path, at.sigma_s * Estimate::from_radii(sum * norm, inner * norm), POINT);
+        self.add(
+            path,
+            at.sigma_s * Estimate::from_radii(sum * norm, inner * norm),
+            Technique::Point,
+        );
     }
 
     /// Surface merging at the diffuse point `p` (normal `n` on the eye's side), the eye arriving
     /// with cosine `gamma_in`.
     fn surface(&mut self, path: &mut EyePath, p: Vec3, n: Vec3, at: &AtSurface, gamma_in: f32) {
         let ctx = self.ctx;
-        if !self.merges() || !ctx.counts(SURFACE) {
+        if !self.merges() || !ctx.counts(Technique::Surface) {
             return;
         }
         let (bounces, carry, ks) = (self.bounces(path), self.carry, ctx.kernels.surface);
@@ -566,14 +564,14 @@ impl CombinedEye<'_> {
             }
             let rec = &ctx.photons.surface_mis[ctx.surface.origin(slot)];
             let total = merge_total(rec.light, at.p_eye(rec.wi), ks, carry, eye_side, 1.0);
-            let w = ctx.w(SURFACE, weight(ks, total));
+            let w = ctx.w(weight(ks, total));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 2);
             sum += ph.beta * (k * w);
             inner += ph.beta * (k_inner * w);
         });
         let norm = inv_r2 * ctx.gather.inv_paths * chance;
         let f = at.material.diffuse_f();
-        self.add(path, f * Estimate::from_radii(sum * norm, inner * norm), SURFACE);
+        self.add(path, f * Estimate::from_radii(sum * norm, inner * norm), Technique::Surface);
     }
 
     /// Next-event estimation from the eye's vertex at `r` (the receiver the light paths' records
@@ -590,7 +588,7 @@ impl CombinedEye<'_> {
         at: &impl Scatterer,
     ) -> Rgb {
         let (ctx, s) = (self.ctx, &mut path.s);
-        if !ctx.counts(NEE) {
+        if !ctx.counts(Technique::Nee) {
             return Rgb::ZERO;
         }
         let Some((li, p_pick)) = ctx.lights.pick(r, s.next_f32()) else { return Rgb::ZERO };
@@ -612,7 +610,7 @@ impl CombinedEye<'_> {
         let nee = nee_density(light, p_pick, pos, x0, r.p);
         let hit = if e.cos > 0.0 { at.p_eye(ls.wi) * e.cos / nee } else { 0.0 };
         let (gamma, p_light) = (at.gamma(ls.wi), at.p_light(ls.wi));
-        let w = ctx.w(NEE, nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in));
+        let w = ctx.w(nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in));
         if w <= 0.0 {
             return Rgb::ZERO;
         }
@@ -654,7 +652,7 @@ impl EyeVisitor for CombinedEye<'_> {
             // The emitter the segment ends on, by its expected value over that choice.
             if let Some(le) = path.scene.le(hit, -d) {
                 let l = path.beta * tr.at(t_max) * self.emission_weighted(path, hit, le);
-                self.count(path, l, HIT);
+                self.count(path, l, Technique::Hit);
                 self.counted = true;
             }
         }
@@ -667,7 +665,7 @@ impl EyeVisitor for CombinedEye<'_> {
         let r = Receiver::medium(x);
         let medium = path.ray.medium;
         let l = self.nee(path, &r, medium, c, at.sigma, &at);
-        self.count(path, path.beta * l, NEE);
+        self.count(path, path.beta * l, Technique::Nee);
         if path.last() && !self.ctx.beyond_last || self.ctx.ends_at_merge {
             return Next::Stop;
         }
@@ -687,7 +685,7 @@ impl EyeVisitor for CombinedEye<'_> {
         }
         // The walker adds it to the path.
         let l = path.beta * self.emission_weighted(path, hit, le);
-        self.tally[HIT] += l;
+        self.tally[Technique::Hit as usize] += l;
         l
     }
 
@@ -701,7 +699,7 @@ impl EyeVisitor for CombinedEye<'_> {
         let r = Receiver::surface(offset_origin(hit.p, n, n), n);
         let medium = path.ray.medium;
         let l = self.nee(path, &r, medium, c, gamma_in, &at);
-        self.count(path, path.beta * l, NEE);
+        self.count(path, path.beta * l, Technique::Nee);
         if path.last() && !self.ctx.beyond_last || self.ctx.ends_at_merge {
             return Next::Stop;
         }
@@ -736,15 +734,14 @@ mod tests {
     /// The tally's indices, the layers' names and `only`'s techniques are one order.
     #[test]
     fn the_techniques_are_listed_in_one_order() {
-        let names: Vec<&str> = Technique::ALL.iter().map(|t| t.name()).collect();
-        assert_eq!(names, TECHNIQUES[..5]);
-        assert_eq!([HIT, NEE, SURFACE, POINT, BEAM], [0, 1, 2, 3, 4]);
+        let names: Vec<&str> = (0..LAYERS).map(layer_name).collect();
+        assert_eq!(names, ["hit", "nee", "surface", "point", "beam", "emitted"]);
+        for (k, &t) in Technique::ALL.iter().enumerate() {
+            assert_eq!(t as usize, k, "{t}");
+        }
         let set: Techniques = "surface+point".parse().unwrap();
-        let ctx_counts = |k: usize| set.contains(Technique::ALL[k]);
-        assert_eq!(
-            [HIT, NEE, SURFACE, POINT, BEAM].map(ctx_counts),
-            [false, false, true, true, false]
-        );
+        let counted: Vec<bool> = Technique::ALL.iter().map(|&t| set.contains(t)).collect();
+        assert_eq!(counted, [false, false, true, true, false]);
         assert_eq!(set.to_string(), "surface+point");
         assert!("surface+surface".parse::<Techniques>().is_err());
         assert!("surface+points".parse::<Techniques>().unwrap_err().contains("\"point\""));

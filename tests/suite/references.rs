@@ -267,7 +267,7 @@ fn the_photon_scenes_match_their_committed_photon_references() {
         },
     ];
     assert_eq!(cases.each_ref().map(|c| c.name), PHOTON_REFERENCES, "keep the lists in step");
-    judge(&cases.iter().flat_map(|case| seed_tiles(case, seeds)).collect::<Vec<_>>(), seeds);
+    judge_cases(&cases, seeds);
 }
 
 /// What [`seed_tiles`] compares: (what, differences over seeds, allowance, factor on the
@@ -416,8 +416,16 @@ fn dense_fog_radii(s: &mut RenderSettings) {
 /// medium the weights treat differently. 20,000 light paths per iteration.
 #[test]
 fn the_combined_integrator_matches_the_path_traced_references() {
-    let seeds = 8u64;
-    let case = |name| PhotonCase {
+    let cases =
+        ["cornell-fog", "vdb-cloud", "spotlight-fog"].map(|name| combined(name, |_| {}, true));
+    judge_cases(&cases, 8);
+}
+
+/// The combined integrator on bundled scene `name` against its path-traced reference, 20,000
+/// light paths per iteration, 4 × 4 tiles, with `overrides`, allowed its stated kernel bias or
+/// not.
+fn combined(name: &'static str, overrides: fn(&mut RenderSettings), bias: bool) -> PhotonCase {
+    PhotonCase {
         name,
         integrator: Integrator::Combined,
         made_by: Integrator::Path,
@@ -425,10 +433,13 @@ fn the_combined_integrator_matches_the_path_traced_references() {
         first_row: 0,
         photons: 20_000,
         reference_iterations: 8192,
-        overrides: |_| {},
-        bias_allowance: true,
-    };
-    let cases = ["cornell-fog", "vdb-cloud", "spotlight-fog"].map(case);
+        overrides,
+        bias_allowance: bias,
+    }
+}
+
+/// [`judge`] over every tile of `cases`, each rendered with `seeds` seeds.
+fn judge_cases(cases: &[PhotonCase], seeds: u64) {
     judge(&cases.iter().flat_map(|case| seed_tiles(case, seeds)).collect::<Vec<_>>(), seeds);
 }
 
@@ -446,28 +457,23 @@ fn each_technique_alone_matches_the_path_traced_references() {
     fn set(s: &mut RenderSettings, only: &str) {
         s.only = Some(only.parse::<Techniques>().unwrap());
     }
-    let seeds = 8u64;
-    let case = |name, overrides: fn(&mut RenderSettings), bias_allowance| PhotonCase {
-        name,
-        integrator: Integrator::Combined,
-        made_by: Integrator::Path,
-        tile: 4,
-        first_row: 0,
-        photons: 20_000,
-        reference_iterations: 8192,
-        overrides,
-        bias_allowance,
-    };
     let cases = [
-        case("cornell-fog", |s| set(s, "hit"), false),
-        case("vdb-cloud", |s| set(s, "nee"), false),
-        case("spotlight-fog", |s| set(s, "nee"), false),
+        combined("cornell-fog", |s| set(s, "hit"), false),
+        combined("vdb-cloud", |s| set(s, "nee"), false),
+        combined("spotlight-fog", |s| set(s, "nee"), false),
         // Four times the volume radius: at the scene's, the cloud's sunlit wisps see no photon
         // in most of 64 iterations, and their tiles' few nonzero renders are not normal.
-        case("vdb-cloud", |s| (set(s, "surface+point"), s.volume_radius = Some(0.1)).0, true),
-        case("spotlight-fog", |s| set(s, "surface+point"), true),
-        case("vdb-cloud", |s| set(s, "surface+beam"), true),
-        case("spotlight-fog", |s| set(s, "surface+beam"), true),
+        combined(
+            "vdb-cloud",
+            |s| {
+                set(s, "surface+point");
+                s.volume_radius = Some(0.1);
+            },
+            true,
+        ),
+        combined("spotlight-fog", |s| set(s, "surface+point"), true),
+        combined("vdb-cloud", |s| set(s, "surface+beam"), true),
+        combined("spotlight-fog", |s| set(s, "surface+beam"), true),
     ];
-    judge(&cases.iter().flat_map(|case| seed_tiles(case, seeds)).collect::<Vec<_>>(), seeds);
+    judge_cases(&cases, 8);
 }
