@@ -17,7 +17,7 @@ use crate::estimate::kernel::Kernel;
 use crate::estimate::radius::radius;
 use crate::scene::Scene;
 use crate::settings::{
-    Integrator, PhotonGuiding, Progression, RenderSettings, Techniques, VolumeEstimate,
+    Integrator, Merges, PhotonGuiding, Progression, RenderSettings, Techniques, VolumeEstimate,
 };
 
 /// The smallest initial radius accepted, relative to the scene's bounding-box diagonal: below it
@@ -95,6 +95,9 @@ pub(crate) struct Plan {
     pub techniques: bool,
     /// Count only these techniques, each with weight 1 (the combined integrator).
     pub only: Option<Techniques>,
+    /// Merge at every eye vertex (`Merges::Everywhere`), not only the first (the combined
+    /// integrator).
+    pub merge_everywhere: bool,
 }
 
 impl Plan {
@@ -170,6 +173,9 @@ impl Plan {
             volume,
             techniques: settings.techniques,
             only: settings.only,
+            // A choice of the combined integrator's, which the others ignore (a scene can set
+            // it for the combined integrator and still be rendered with another).
+            merge_everywhere: settings.merges == Some(Merges::Everywhere),
         })
     }
 

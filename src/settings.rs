@@ -124,6 +124,19 @@ choices! {
     }
 }
 
+choices! {
+    /// Where the combined integrator's eye paths merge with photons.
+    pub enum Merges ("merges") {
+        /// At the eye path's first vertex that is not specular, and along its segments up to it
+        /// in media: a photon-mapping estimate without a final gather (the default).
+        First = "first",
+        /// At every vertex of the eye path and along every segment in a medium: UPBP's set of
+        /// merging techniques. Each iteration costs more; less noisy per iteration in dense,
+        /// bright or strongly anisotropic media (docs/performance.md, "Where the eye merges").
+        Everywhere = "everywhere",
+    }
+}
+
 /// A set of the combined integrator's techniques, written with `+` between them
 /// (`surface+point`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -549,6 +562,12 @@ render_settings! {
     /// only the eye paths gather, is always counted.
     [long, value_name = "T+T"]
     only: Techniques, optional = None, any;
+
+    /// With the combined integrator, where eye paths merge with photons: `first` (the default),
+    /// at their first vertex that is not specular, or `everywhere`, at every vertex (UPBP's
+    /// set of techniques). The other integrators ignore it.
+    [long, value_name = "WHERE"]
+    merges: Merges, optional = None, any;
 }
 
 /// A rejected setting: the key (as in the scene file) and the reason.

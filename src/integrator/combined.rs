@@ -118,7 +118,12 @@ impl Combined {
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
         let radii = self.plan.radii(i);
-        let kernels = Kernels::new(self.plan.paths, radii.surface, radii.volume, MERGE_EVERYWHERE);
+        // Merging at the first vertex only is the default: there a merge is a photon-mapping
+        // estimate without a final gather; deeper merges come after the eye path's own sampling,
+        // which the densities in the weights do not see as noise, and each costs a query
+        // (`Merges`; docs/performance.md, "Where the eye merges", measures both).
+        let deep = self.plan.merge_everywhere;
+        let kernels = Kernels::new(self.plan.paths, radii.surface, radii.volume, deep);
         let clock = Instant::now();
         let only = self.plan.only;
         let counts = |t| only.is_none_or(|o: Techniques| o.contains(t));
@@ -618,17 +623,6 @@ impl CombinedEye<'_> {
         f * ls.value * tr * (w / p_pick)
     }
 }
-
-/// Whether eye paths merge at every vertex (UPBP's set of techniques) or only at their first
-/// vertex that is not specular and along their segments up to it. At the first vertex a merge is
-/// a photon-mapping estimate without a final gather; deeper merges come after the eye path's own
-/// sampling, which the densities in the weights do not see as noise, and each costs a query:
-/// measured at equal time (25 s, 2 cores, docs/convergence/run.sh's settings), merging at the
-/// first vertex only gave 7.5 % against 10.2 % on cornell-fog and 6.1 % against 7.1 % on
-/// cornell-box, merging everywhere 6.5 % against 7.8 % on vdb-cloud — and far less noisy in
-/// albedo-1 media: `haze validate --quick`'s coloured-extinction furnace read 1.060 ± 0.016
-/// merging everywhere, 1.183 ± 0.109 merging at the first vertex.
-const MERGE_EVERYWHERE: bool = false;
 
 /// Merges that can weigh at least this much are always gathered; below, by Russian roulette
 /// ([`CombinedEye::gather_chance`]).

@@ -29,7 +29,7 @@ use crate::output::Image;
 use crate::progress::Status;
 use crate::scene::Scene;
 use crate::settings::{
-    Integrator, Kernel, Progression, RenderOptions, RenderSettings, VolumeEstimate,
+    Integrator, Kernel, Merges, Progression, RenderOptions, RenderSettings, VolumeEstimate,
 };
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -854,9 +854,18 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
                 })
                 .collect()
         }
+        "merges" => [Merges::First, Merges::Everywhere]
+            .iter()
+            .map(|&m| {
+                with(format!("combined, merges {}", m.name()), &|s| {
+                    s.integrator = Integrator::Combined;
+                    s.merges = Some(m);
+                })
+            })
+            .collect(),
         _ => {
             return Err(format!(
-                "unknown comparison `{name}`; expected estimate, alpha, volume-alpha, kernel, dimension, photons, progression or integrator"
+                "unknown comparison `{name}`; expected estimate, alpha, volume-alpha, kernel, dimension, photons, progression, integrator or merges"
             ));
         }
     })
@@ -890,6 +899,18 @@ mod tests {
     fn slope_of_a_power_law() {
         let pts: Vec<(f64, f64)> = (1..10).map(|i| (i as f64, (i as f64).powf(-0.4))).collect();
         assert!((fit_slope(&pts).unwrap() + 0.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_merges_comparison_sets_the_combined_integrator() {
+        let series = preset("merges", &RenderSettings::default()).unwrap();
+        let got: Vec<_> =
+            series.iter().map(|s| (s.settings.integrator, s.settings.merges)).collect();
+        let combined = Integrator::Combined;
+        assert_eq!(got, [(combined, Some(Merges::First)), (combined, Some(Merges::Everywhere))]);
+        for s in &series {
+            s.settings.validate().unwrap();
+        }
     }
 
     #[test]

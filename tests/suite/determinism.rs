@@ -36,7 +36,7 @@ fn image_is_bit_identical_across_thread_counts() {
 /// Media: the beam estimate through the view bins (pinhole camera outside the fog, and inside it
 /// in spotlight-fog) and the grid (segments refracted by the lens), with and without thinning, the
 /// point estimate, and the combined integrator (with thinning: its merges find each photon's
-/// weight record through the thinned map).
+/// weight record through the thinned map), merging at the first eye vertex and everywhere.
 #[test]
 fn media_images_are_bit_identical_across_thread_counts() {
     for (name, size) in
@@ -51,9 +51,15 @@ fn media_images_are_bit_identical_across_thread_counts() {
         point.volume_estimate = VolumeEstimate::Point;
         let mut combined = thinned.clone();
         combined.integrator = haze::settings::Integrator::Combined;
-        for (label, settings) in
-            [("beam", &beam), ("thinned", &thinned), ("point", &point), ("combined", &combined)]
-        {
+        let mut everywhere = combined.clone();
+        everywhere.merges = Some(haze::settings::Merges::Everywhere);
+        for (label, settings) in [
+            ("beam", &beam),
+            ("thinned", &thinned),
+            ("point", &point),
+            ("combined", &combined),
+            ("combined, merging everywhere", &everywhere),
+        ] {
             let one = render_settings(&scene, settings, 1, 5);
             for threads in [2, 3] {
                 let other = render_settings(&scene, settings, threads, 5);

@@ -443,6 +443,18 @@ fn judge_cases(cases: &[PhotonCase], seeds: u64) {
     judge(&cases.iter().flat_map(|case| seed_tiles(case, seeds)).collect::<Vec<_>>(), seeds);
 }
 
+/// Merging at every eye vertex (`merges = "everywhere"`, UPBP's set of merging techniques)
+/// against the same references as [`the_combined_integrator_matches_the_path_traced_references`]:
+/// the merges deeper in the eye paths, and the light paths' records of them, enter every weight,
+/// so that a wrong record or a deeper merge's wrong density biases the image here.
+#[test]
+fn merging_everywhere_matches_the_path_traced_references() {
+    use haze::settings::Merges;
+    let cases = ["cornell-fog", "vdb-cloud", "spotlight-fog"]
+        .map(|name| combined(name, |s| s.merges = Some(Merges::Everywhere), true));
+    judge_cases(&cases, 8);
+}
+
 /// Each of the combined integrator's techniques alone (`only`, weight 1), against the committed
 /// path-traced references as in [`the_combined_integrator_matches_the_path_traced_references`]:
 /// the eye path reaching the light (`hit`, cornell-fog's area light), next-event estimation

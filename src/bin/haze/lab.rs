@@ -48,7 +48,8 @@ pub(crate) struct ConvergeArgs {
     #[arg(long, value_name = "K", default_value_t = 1)]
     runs: u32,
     /// A named comparison: estimate, alpha, volume-alpha, kernel, dimension, photons,
-    /// progression or integrator (repeatable).
+    /// progression, integrator or merges (the combined integrator's, first and everywhere)
+    /// (repeatable).
     #[arg(long, value_name = "NAME")]
     compare: Vec<String>,
     /// A series LABEL:KEY=VALUE,… with keys of the scene's [render] table, e.g.
