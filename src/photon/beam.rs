@@ -31,6 +31,7 @@
 
 use super::VolumePhoton;
 use super::entries::{Entries, Lanes, Span};
+use super::sort::CountingSort;
 use super::view::ViewBins;
 use crate::rng::{Purpose, Sampler};
 use crate::scene::camera::Camera;
@@ -94,16 +95,16 @@ impl Sizing {
         // each axis (a few stray photons far away must not make every cell huge), estimated from
         // an evenly strided sample.
         let stride = photons.len().div_ceil(1 << 16);
-        let mut coord: Vec<f32> = Vec::with_capacity(photons.len() / stride + 1);
-        let mut core = Vec3::ZERO;
-        for axis in 0..3 {
-            coord.clear();
-            coord.extend(photons.iter().step_by(stride).map(|p| p.p[axis]));
+        let side = |axis: usize| {
+            let mut coord: Vec<f32> = photons.iter().step_by(stride).map(|p| p.p[axis]).collect();
             let n = coord.len();
             let a = *coord.select_nth_unstable_by(n / 20, f32::total_cmp).1;
             let b = *coord.select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp).1;
-            core[axis] = (b - a).max(radius).max(1e-6 * extent.max_element());
-        }
+            (b - a).max(radius).max(1e-6 * extent.max_element())
+        };
+        // The three axes side by side.
+        let (x, (y, z)) = rayon::join(|| side(0), || rayon::join(|| side(1), || side(2)));
+        let core = Vec3::new(x, y, z);
         let volume_per_photon = core.element_product() / 0.9f32.powi(3) / photons.len() as f32;
         Self { lo, extent, volume_per_photon, radius }
     }
@@ -137,6 +138,8 @@ pub struct BeamMap {
     /// Scratch space, reused between builds.
     keys: Vec<u32>,
     count: Vec<u32>,
+    order: Vec<u32>,
+    sort: CountingSort,
     spans: Vec<Span>,
     spare: Vec<VolumePhoton>,
     /// With tracking on: for each photon kept by the thinning, its index in the built list …
@@ -283,14 +286,12 @@ impl BeamMap {
             let c = ((p.p - sizing.lo) * inv).as_ivec3().clamp(IVec3::ZERO, dims - 1);
             (c.x + dims.x * (c.y + dims.y * c.z)) as u32
         }));
-        self.count.clear();
-        self.count.resize(dims.element_product() as usize, 0);
-        for &k in &self.keys {
-            self.count[k as usize] += 1;
-        }
-        let count = &self.count;
+        // Photons per thinning cell, from a counting sort's bucket starts.
+        let mut cells = std::mem::take(&mut self.count);
+        self.sort.sort(&self.keys, dims.element_product() as usize, &mut cells, &mut self.order);
         let kept = |i: usize, k: u32| {
-            let keep = (t.budget as f64 / count[k as usize] as f64).min(1.0);
+            let k = k as usize;
+            let keep = (t.budget as f64 / (cells[k + 1] - cells[k]) as f64).min(1.0);
             if keep < 1.0 {
                 let mut u = Sampler::new(t.seed, Purpose::Thinning, t.iteration, i as u64);
                 if u.next_f32() as f64 >= keep {
@@ -310,6 +311,7 @@ impl BeamMap {
                 self.keys.par_iter().enumerate().filter_map(|(i, &k)| kept(i, k).map(|_| i as u32));
             self.kept.par_extend(which);
         }
+        self.count = cells;
     }
 
     /// Moves the photons from `spare` into `photons`, ordered by the view bin their centre
@@ -327,15 +329,9 @@ impl BeamMap {
             self.dims.element_product() as usize
         };
         let mut start = std::mem::take(&mut self.grid.start);
-        super::bucket_starts(keys.iter().copied(), buckets, &mut start);
         // `source[j]` is the photon that goes to place j.
         let mut source = std::mem::take(&mut self.count);
-        source.clear();
-        source.resize(kept.len(), 0);
-        for (i, &k) in keys.iter().enumerate() {
-            source[start[k as usize] as usize] = i as u32;
-            start[k as usize] += 1;
-        }
+        self.sort.sort(&keys, buckets, &mut start, &mut source);
         source.par_iter().map(|&i| kept[i as usize]).collect_into_vec(&mut self.photons);
         self.origin.clear();
         if self.track {

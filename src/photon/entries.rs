@@ -12,8 +12,12 @@ pub(super) type Span = (IVec3, IVec3);
 /// The empty span.
 pub(super) const NO_SPAN: Span = (IVec3::ONE, IVec3::ZERO);
 
-/// Bands of buckets filled in parallel (a constant: the result does not depend on it).
-const BANDS: usize = 4;
+/// Most bands of z-slices filled in parallel (fewer where the grid has fewer slices): enough for
+/// several per thread on large machines. Each band reads only the photons that reach it, so more
+/// bands cost little; the entries do not depend on the number of bands.
+const BANDS: usize = 64;
+/// Photons per work item when they are listed by the bands they reach.
+const LIST_CHUNK: usize = 1 << 14;
 
 /// Photon entries grouped by bucket (a grid cell or a view bin): `start[b]..start[b + 1]` are
 /// bucket b's entries, each the photon's position (read by every test) and its index.
@@ -24,6 +28,9 @@ pub(super) struct Entries {
     y: Vec<f32>,
     z: Vec<f32>,
     idx: Vec<u32>,
+    /// Scratch, per work item of photons: the photons grouped by the bands they reach, and
+    /// where each band's group starts.
+    by_band: Vec<(Vec<u32>, Vec<u32>)>,
 }
 
 /// A query ray, splatted for four-wide tests.
@@ -55,18 +62,16 @@ impl Lanes {
     }
 }
 
-/// Calls `f(bucket, i)` for every bucket of every span `spans[i]` that lies in the z-slices
-/// `z0..=z1` of a grid of `dims` numbered x-fastest, in the order of the spans.
+/// Calls `f(bucket)` for every bucket of `span` that lies in the z-slices `z0..=z1` of a grid of
+/// `dims` numbered x-fastest.
 #[inline(always)]
-fn each_in_slices(spans: &[Span], dims: IVec3, z0: i32, z1: i32, mut f: impl FnMut(usize, u32)) {
-    for (i, (a, b)) in spans.iter().enumerate() {
-        let i = i as u32;
-        for z in a.z.max(z0)..=b.z.min(z1) {
-            for y in a.y..=b.y {
-                let row = (dims.x * (y + dims.y * z)) as usize;
-                for x in a.x..=b.x {
-                    f(row + x as usize, i);
-                }
+fn each_in_slices(span: &Span, dims: IVec3, z0: i32, z1: i32, mut f: impl FnMut(usize)) {
+    let (a, b) = span;
+    for z in a.z.max(z0)..=b.z.min(z1) {
+        for y in a.y..=b.y {
+            let row = (dims.x * (y + dims.y * z)) as usize;
+            for x in a.x..=b.x {
+                f(row + x as usize);
             }
         }
     }
@@ -92,52 +97,54 @@ impl Entries {
     /// Fills the buckets, a grid of `dims` numbered x-fastest, by a counting sort: photon i
     /// enters every bucket of `spans[i]`. Each bucket lists its photons in index order, so the
     /// result does not depend on the thread count. Bands of z-slices are counted and scattered in
-    /// parallel; each band sees every span, clipped to its slices.
+    /// parallel, each reading the photons that reach it (listed first, in parallel).
     pub(super) fn fill(&mut self, dims: IVec3, photons: &[VolumePhoton], spans: &[Span]) {
         let slab = (dims.x * dims.y) as usize;
         let buckets = slab * dims.z as usize;
         let slices = (dims.z as usize).div_ceil(BANDS);
         let band = slab * slices;
+        let bands = (dims.z as usize).div_ceil(slices);
+        self.list_by_band(spans, slices, bands);
+        let by_band = &self.by_band;
+        // The photons that reach band k, in index order.
+        let reaching = move |k: usize| {
+            by_band.iter().flat_map(move |(list, at)| &list[at[k] as usize..at[k + 1] as usize])
+        };
+        let slices_of = |k: usize| ((k * slices) as i32, ((k + 1) * slices) as i32 - 1);
         self.start.clear();
         self.start.resize(buckets + 1, 0);
-        self.start[1..].par_chunks_mut(band).enumerate().for_each(|(k, count)| {
-            each_in_slices(
-                spans,
-                dims,
-                (k * slices) as i32,
-                ((k + 1) * slices) as i32 - 1,
-                |b, _| count[b - k * band] += 1,
-            );
+        self.start[1..].par_chunks_mut(band).enumerate().with_max_len(1).for_each(|(k, count)| {
+            let (z0, z1) = slices_of(k);
+            for &i in reaching(k) {
+                each_in_slices(&spans[i as usize], dims, z0, z1, |b| count[b - k * band] += 1);
+            }
         });
         for b in 0..buckets {
             self.start[b + 1] += self.start[b];
         }
         // Scatter the photon indices, each band into its own part of the entries.
         self.idx.resize(self.start[buckets] as usize, 0);
-        let mut parts = Vec::with_capacity(BANDS);
+        let mut parts = Vec::with_capacity(bands);
         let mut rest = &mut self.idx[..];
-        for k in 0..buckets.div_ceil(band) {
+        for k in 0..bands {
             let (lo, hi) = (k * band, ((k + 1) * band).min(buckets));
             let (part, tail) = rest.split_at_mut((self.start[hi] - self.start[lo]) as usize);
             parts.push((k, part));
             rest = tail;
         }
         let start = &self.start;
-        parts.into_par_iter().for_each(|(k, out)| {
+        parts.into_par_iter().with_max_len(1).for_each(|(k, out)| {
             let lo = k * band;
             let hi = (lo + band).min(buckets);
             let mut cursor: Vec<u32> = start[lo..hi].iter().map(|&s| s - start[lo]).collect();
-            each_in_slices(
-                spans,
-                dims,
-                (k * slices) as i32,
-                ((k + 1) * slices) as i32 - 1,
-                |b, i| {
+            let (z0, z1) = slices_of(k);
+            for &i in reaching(k) {
+                each_in_slices(&spans[i as usize], dims, z0, z1, |b| {
                     let c = &mut cursor[b - lo];
                     out[*c as usize] = i;
                     *c += 1;
-                },
-            );
+                });
+            }
         });
         // Gather the positions (sequential writes, in parallel).
         let n = self.idx.len();
@@ -156,6 +163,37 @@ impl Entries {
                     (x[k], y[k], z[k]) = (p.x, p.y, p.z);
                 }
             });
+    }
+
+    /// Lists, per work item of [`LIST_CHUNK`] photons, the photons that reach each of `bands`
+    /// bands of `slices` z-slices (in index order), in parallel.
+    fn list_by_band(&mut self, spans: &[Span], slices: usize, bands: usize) {
+        let reach = |(a, b): &Span| {
+            (a.z <= b.z).then(|| {
+                (a.z.max(0) as usize / slices, (b.z.max(0) as usize / slices).min(bands - 1))
+            })
+        };
+        self.by_band.resize_with(spans.len().div_ceil(LIST_CHUNK), Default::default);
+        let work = spans.par_chunks(LIST_CHUNK).zip(&mut self.by_band).enumerate();
+        work.with_max_len(1).for_each(|(c, (spans, (list, at)))| {
+            at.clear();
+            at.resize(bands + 1, 0);
+            for (k0, k1) in spans.iter().filter_map(reach) {
+                (k0..=k1).for_each(|k| at[k + 1] += 1);
+            }
+            for k in 0..bands {
+                at[k + 1] += at[k];
+            }
+            list.resize(at[bands] as usize, 0);
+            let mut cursor = at[..bands].to_vec();
+            for (j, span) in spans.iter().enumerate() {
+                let Some((k0, k1)) = reach(span) else { continue };
+                for k in k0..=k1 {
+                    list[cursor[k] as usize] = (c * LIST_CHUNK + j) as u32;
+                    cursor[k] += 1;
+                }
+            }
+        });
     }
 
     /// Calls `f(index, t_p, d²)` for every entry of bucket `b` within the radius of the ray whose

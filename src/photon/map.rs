@@ -6,7 +6,9 @@
 //! by bucket, which keeps the build O(N) and deterministic (stable in photon order).
 
 use super::Located;
+use super::sort::CountingSort;
 use glam::{IVec3, Vec3};
+use rayon::prelude::*;
 
 /// The photon grid.
 pub struct PhotonGrid<P> {
@@ -21,6 +23,7 @@ pub struct PhotonGrid<P> {
     /// With tracking on, the index in the built list of the photon in each slot.
     origin: Vec<u32>,
     track: bool,
+    sort: CountingSort,
 }
 
 impl<P> Default for PhotonGrid<P> {
@@ -34,6 +37,7 @@ impl<P> Default for PhotonGrid<P> {
             keys: Vec::new(),
             origin: Vec::new(),
             track: false,
+            sort: CountingSort::default(),
         }
     }
 }
@@ -47,7 +51,7 @@ fn hash(c: IVec3) -> usize {
     (h ^ (h >> 15)).wrapping_mul(0x2c1b_3c6d) as usize
 }
 
-impl<P: Located + Copy + Default> PhotonGrid<P> {
+impl<P: Located + Copy + Default + Send + Sync> PhotonGrid<P> {
     /// An empty grid.
     #[cfg(test)]
     pub fn new() -> Self {
@@ -63,25 +67,17 @@ impl<P: Located + Copy + Default> PhotonGrid<P> {
         self.mask = buckets - 1;
         let mut keys = std::mem::take(&mut self.keys);
         keys.clear();
-        keys.extend(photons.iter().map(|ph| self.bucket(self.cell_of(ph.position())) as u32));
-        self.keys = keys;
-        super::bucket_starts(self.keys.iter().copied(), buckets, &mut self.start);
-        self.photons.clear();
-        self.photons.resize(photons.len(), P::default());
-        // Scatter with a moving cursor per bucket (reuse `start` shifted by one slot).
-        let mut cursor = self.start[..buckets].to_vec();
-        self.origin.clear();
-        if self.track {
-            self.origin.resize(photons.len(), 0);
+        keys.par_extend(
+            photons.par_iter().map(|ph| self.bucket(self.cell_of(ph.position())) as u32),
+        );
+        // `origin[slot]` is the photon that goes to the slot (kept only with tracking on).
+        let mut origin = std::mem::take(&mut self.origin);
+        self.sort.sort(&keys, buckets, &mut self.start, &mut origin);
+        origin.par_iter().map(|&i| photons[i as usize]).collect_into_vec(&mut self.photons);
+        if !self.track {
+            origin.clear();
         }
-        for (i, (ph, &k)) in photons.iter().zip(&self.keys).enumerate() {
-            let slot = &mut cursor[k as usize];
-            self.photons[*slot as usize] = *ph;
-            if self.track {
-                self.origin[*slot as usize] = i as u32;
-            }
-            *slot += 1;
-        }
+        (self.keys, self.origin) = (keys, origin);
     }
 
     /// Keep, from the next build on, which photon of the built list each slot holds

@@ -27,8 +27,13 @@ impl Tally {
         if !(v > 0.0 && v.is_finite()) {
             return;
         }
-        // Positive floats order as their bit patterns do.
-        self.sums[i].fetch_max(v.to_bits(), Ordering::Relaxed);
+        // Positive floats order as their bit patterns do. Read first: most contributions do not
+        // raise the maximum, and a read leaves the cache line shared between the threads that
+        // gather the same photon, where a read-modify-write would take it from them each time.
+        let (slot, bits) = (&self.sums[i], v.to_bits());
+        if bits > slot.load(Ordering::Relaxed) {
+            slot.fetch_max(bits, Ordering::Relaxed);
+        }
     }
 
     /// The value of slot `i`.

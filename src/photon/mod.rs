@@ -5,6 +5,7 @@ mod entries;
 pub mod guide;
 pub mod map;
 pub(crate) mod marks;
+pub(crate) mod sort;
 pub mod trace;
 mod view;
 
@@ -67,20 +68,6 @@ impl BounceRange {
     #[inline]
     pub(crate) fn contains(&self, bounces: u16) -> bool {
         bounces >= self.min && bounces <= self.max
-    }
-}
-
-/// Counting-sort offsets: `start` becomes `buckets + 1` entries with `start[b]..start[b + 1]` the
-/// slots of bucket b, for items whose buckets are `keys` (in order, so a scatter with a cursor per
-/// bucket keeps the items' order within a bucket: the sort is stable and deterministic).
-pub(crate) fn bucket_starts(keys: impl Iterator<Item = u32>, buckets: usize, start: &mut Vec<u32>) {
-    start.clear();
-    start.resize(buckets + 1, 0);
-    for k in keys {
-        start[k as usize + 1] += 1;
-    }
-    for b in 0..buckets {
-        start[b + 1] += start[b];
     }
 }
 

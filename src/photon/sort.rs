@@ -1,0 +1,218 @@
+//! A stable counting sort of items by bucket, in parallel: the photon maps' builds put photons in
+//! bucket order with it.
+//!
+//! The serial counting sort (count, prefix-sum, scatter) is one pass that no thread can share, and
+//! on many cores it becomes the longest part of a map build. Here the buckets are split into at
+//! most [`GROUPS`] contiguous groups and the items into work items of [`ITEMS`]: each work item
+//! first orders its own items by group (in parallel), then each group orders its items, gathered
+//! from the work items in order, by bucket (in parallel). Both steps are stable, so the result is
+//! the serial sort's exactly — bucket by bucket, items in index order — whatever the thread count.
+
+use rayon::prelude::*;
+
+/// Most groups of buckets (fewer where there are fewer buckets).
+const GROUPS: usize = 1024;
+/// Items per work item.
+const ITEMS: usize = 1 << 14;
+/// Below this many items, the serial sort (the parallel one's bookkeeping would cost more).
+const SERIAL_BELOW: usize = 1 << 15;
+
+/// Buffers of the sort, kept between sorts so that a render's builds reuse them.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CountingSort {
+    /// Work item k's items, ordered by group.
+    local: Vec<Vec<u32>>,
+    /// Work item k's group starts in `local[k]` (`groups + 1` entries).
+    local_start: Vec<Vec<u32>>,
+}
+
+impl CountingSort {
+    /// Sorts the items `0..keys.len()` by their bucket `keys[i] < buckets`, stably: afterwards
+    /// `start` has `buckets + 1` entries, `start[b]..start[b + 1]` being the slots of bucket b,
+    /// and `order[slot]` is the item in `slot`.
+    pub(crate) fn sort(
+        &mut self,
+        keys: &[u32],
+        buckets: usize,
+        start: &mut Vec<u32>,
+        order: &mut Vec<u32>,
+    ) {
+        debug_assert!(keys.par_iter().all(|&k| (k as usize) < buckets));
+        start.clear();
+        start.resize(buckets + 1, 0);
+        order.clear();
+        order.resize(keys.len(), 0);
+        if keys.len() < SERIAL_BELOW || buckets < 2 {
+            serial(keys, start, order);
+            return;
+        }
+        let per = buckets.div_ceil(GROUPS.min(buckets));
+        let groups = buckets.div_ceil(per);
+        self.group_work_items(keys, per, groups);
+        let group_start = self.group_starts(groups);
+        // Each group orders its items by bucket, into its own part of `order` and of `start`.
+        let mut parts = Vec::with_capacity(groups);
+        let (mut rest, mut starts) = (&mut order[..], &mut start[..buckets]);
+        for g in 0..groups {
+            let (part, tail) = rest.split_at_mut((group_start[g + 1] - group_start[g]) as usize);
+            let (s, s_tail) = starts.split_at_mut(per.min(starts.len()));
+            parts.push((g, part, s));
+            (rest, starts) = (tail, s_tail);
+        }
+        parts.into_par_iter().with_max_len(1).for_each(|(g, out, st)| {
+            self.order_group(keys, g, g * per, out, st);
+            for s in st.iter_mut() {
+                *s += group_start[g];
+            }
+        });
+        start[buckets] = keys.len() as u32;
+    }
+
+    /// Orders each work item's items by group (`per` buckets a group), in parallel.
+    fn group_work_items(&mut self, keys: &[u32], per: usize, groups: usize) {
+        let items = keys.len().div_ceil(ITEMS);
+        self.local.resize_with(items, Vec::new);
+        self.local_start.resize_with(items, Vec::new);
+        let work = keys.par_chunks(ITEMS).zip(&mut self.local).zip(&mut self.local_start);
+        work.enumerate().with_max_len(1).for_each(|(k, ((keys, local), at))| {
+            at.clear();
+            at.resize(groups + 1, 0);
+            for &key in keys {
+                at[key as usize / per] += 1;
+            }
+            // Ends of the groups, then (scattering backwards) their starts.
+            for g in 1..=groups {
+                at[g] += at[g - 1];
+            }
+            local.clear();
+            local.resize(keys.len(), 0);
+            let first = (k * ITEMS) as u32;
+            for (i, &key) in keys.iter().enumerate().rev() {
+                let c = &mut at[key as usize / per];
+                *c -= 1;
+                local[*c as usize] = first + i as u32;
+            }
+        });
+    }
+
+    /// Where each group's items go: the groups in order, each as large as its work items' parts
+    /// together (`groups + 1` entries).
+    fn group_starts(&self, groups: usize) -> Vec<u32> {
+        let mut group_start = vec![0u32; groups + 1];
+        for at in &self.local_start {
+            for g in 0..groups {
+                group_start[g + 1] += at[g + 1] - at[g];
+            }
+        }
+        for g in 0..groups {
+            group_start[g + 1] += group_start[g];
+        }
+        group_start
+    }
+
+    /// Orders group `g`'s items, gathered from the work items in order, by bucket into `out`,
+    /// leaving in `st` (its buckets, the first being `lo`) where each bucket starts in `out`.
+    fn order_group(&self, keys: &[u32], g: usize, lo: usize, out: &mut [u32], st: &mut [u32]) {
+        let parts = || {
+            let each = self.local.iter().zip(&self.local_start);
+            each.map(move |(l, at)| &l[at[g] as usize..at[g + 1] as usize])
+        };
+        for part in parts() {
+            for &i in part {
+                st[keys[i as usize] as usize - lo] += 1;
+            }
+        }
+        for b in 1..st.len() {
+            st[b] += st[b - 1];
+        }
+        // Backwards, so that each bucket's items keep their order and `st` ends at the buckets'
+        // starts.
+        for part in parts().rev() {
+            for &i in part.iter().rev() {
+                let c = &mut st[keys[i as usize] as usize - lo];
+                *c -= 1;
+                out[*c as usize] = i;
+            }
+        }
+    }
+}
+
+/// The serial counting sort, the reference of [`CountingSort::sort`] (`start` and `order` sized
+/// and zeroed).
+fn serial(keys: &[u32], start: &mut [u32], order: &mut [u32]) {
+    for &k in keys {
+        start[k as usize + 1] += 1;
+    }
+    for b in 1..start.len() {
+        start[b] += start[b - 1];
+    }
+    let buckets = start.len() - 1;
+    let mut cursor = start[..buckets].to_vec();
+    for (i, &k) in keys.iter().enumerate() {
+        let c = &mut cursor[k as usize];
+        order[*c as usize] = i as u32;
+        *c += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{Purpose, Sampler};
+
+    fn check(keys: &[u32], buckets: usize) {
+        let (mut start, mut order) = (Vec::new(), Vec::new());
+        CountingSort::default().sort(keys, buckets, &mut start, &mut order);
+        let mut want_start = vec![0; buckets + 1];
+        let mut want_order = vec![0; keys.len()];
+        serial(keys, &mut want_start, &mut want_order);
+        assert_eq!(start, want_start, "{} keys, {buckets} buckets", keys.len());
+        assert_eq!(order, want_order, "{} keys, {buckets} buckets", keys.len());
+        // And the serial sort is a stable sort by key.
+        let mut by_key: Vec<u32> = (0..keys.len() as u32).collect();
+        by_key.sort_by_key(|&i| keys[i as usize]);
+        assert_eq!(order, by_key);
+    }
+
+    #[test]
+    fn the_parallel_sort_is_the_serial_stable_sort() {
+        let mut s = Sampler::new(3, Purpose::Other, 0, 0);
+        for (n, buckets) in [
+            (0, 1),
+            (10, 7),
+            (100_000, 1),
+            (100_000, 3),
+            (100_000, 1000),
+            (100_000, 1 << 18),
+            (200_003, 777_777),
+            (70_000, 1025),
+        ] {
+            let uniform: Vec<u32> =
+                (0..n).map(|_| (s.next_f32() * buckets as f32) as u32 % buckets as u32).collect();
+            check(&uniform, buckets);
+            // Most items in a few buckets, as photons in a bright spot.
+            let skewed: Vec<u32> = (0..n)
+                .map(|_| {
+                    let u = s.next_f32();
+                    let b = if u < 0.9 { u * 3.0 } else { s.next_f32() * buckets as f32 };
+                    b as u32 % buckets as u32
+                })
+                .collect();
+            check(&skewed, buckets);
+        }
+    }
+
+    #[test]
+    fn buffers_are_reused_across_sorts_of_other_sizes() {
+        let mut sort = CountingSort::default();
+        let (mut start, mut order) = (Vec::new(), Vec::new());
+        for (n, buckets) in [(300_000usize, 5000usize), (40_000, 90_000), (120_000, 17)] {
+            let keys: Vec<u32> = (0..n).map(|i| ((i * 7919) % buckets) as u32).collect();
+            sort.sort(&keys, buckets, &mut start, &mut order);
+            let mut want_start = vec![0; buckets + 1];
+            let mut want_order = vec![0; n];
+            serial(&keys, &mut want_start, &mut want_order);
+            assert_eq!((start.clone(), order.clone()), (want_start, want_order));
+        }
+    }
+}
