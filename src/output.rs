@@ -161,9 +161,12 @@ impl Image {
     pub fn write(&self, path: &Path, exposure: f32) -> Result<Vec<PathBuf>> {
         match extension(path).as_deref() {
             Some("exr") => {
-                self.write_exr(path)?;
                 let png = preview_path(path);
-                self.write_png(&png, exposure)?;
+                // Side by side: the PNG's encoding is serial, the EXR's compression uses every
+                // core only where the image has enough blocks.
+                let (exr, preview) =
+                    rayon::join(|| self.write_exr(path), || self.write_png(&png, exposure));
+                exr.and(preview)?;
                 Ok(vec![path.to_path_buf(), png])
             }
             Some("png") => {
@@ -307,7 +310,11 @@ impl Image {
             ImageAttributes::new(IntegerBounds::from_dimensions(bounds)),
             layers,
         );
-        write_atomically(path, |w| image.write().to_buffered(w).map_err(|e| e.to_string()))
+        // The exr crate compresses blocks on a pool of its own with a thread per core; a
+        // single-threaded render (`--threads 1`) compresses on its own thread.
+        let writer = image.write();
+        let writer = if rayon::current_num_threads() == 1 { writer.non_parallel() } else { writer };
+        write_atomically(path, |w| writer.to_buffered(w).map_err(|e| e.to_string()))
     }
 
     /// Writes an 8-bit sRGB PNG after scaling by `exposure` and clamping, marked as haze's

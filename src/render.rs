@@ -135,10 +135,12 @@ pub fn render_partial(
         let _finish = RaiseOnDrop(&finished);
         while !done(settings, iteration, start, stop) {
             let i = iteration + 1;
-            let Some(times) = method.iterate(scene, i, &halt, &nonfinite, &mut frame) else {
+            let Some(mut times) = method.iterate(scene, i, &halt, &nonfinite, &mut frame) else {
                 break;
             };
+            let clock = Instant::now();
             method.accumulate(&mut film, &frame);
+            times.film = clock.elapsed().as_secs_f64();
             iteration = i;
             let stored = method.photons_stored();
             progress.iteration(&Status {

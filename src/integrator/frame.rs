@@ -36,6 +36,8 @@ pub struct StepTimes {
     pub volume_map: f64,
     /// The camera pass: eye paths with their estimates (for the path tracer, the whole iteration).
     pub camera: f64,
+    /// Adding the iteration's image to the film.
+    pub film: f64,
     /// With the `profile` feature, the part of `camera` spent in volume estimates (thread time
     /// divided by the thread count); `None` without it.
     pub volume_estimates: Option<f64>,
@@ -44,7 +46,12 @@ pub struct StepTimes {
 impl StepTimes {
     /// The whole iteration.
     pub fn total(&self) -> f64 {
-        self.pilot + self.photon_trace + self.surface_map + self.volume_map + self.camera
+        self.pilot
+            + self.photon_trace
+            + self.surface_map
+            + self.volume_map
+            + self.camera
+            + self.film
     }
 }
 
@@ -73,7 +80,11 @@ pub(crate) fn render_rows_with<T: Send + Default>(
     radiance: impl Fn(u32, u32) -> (Estimate, T) + Sync,
 ) -> bool {
     let rows = frame.value.par_chunks_mut(width).zip(frame.bias.par_chunks_mut(width));
-    rows.zip(extra.par_chunks_mut(width)).enumerate().for_each(|(y, ((row, bias), more))| {
+    // Row by row: rayon would otherwise hand each thread a run of rows at once, and where rows
+    // differ in cost one thread can be left with the last long run while the others wait
+    // (cornell-fog's hybrid camera pass kept a second thread busy only 65 % of the time).
+    let rows = rows.zip(extra.par_chunks_mut(width)).enumerate().with_max_len(1);
+    rows.for_each(|(y, ((row, bias), more))| {
         if stop.load(Ordering::Relaxed) {
             return;
         }

@@ -231,7 +231,7 @@ pub(crate) fn gather_pass(
     let iterations = pass.iteration as f64;
     let surface: &PhotonGrid<Photon> = maps.surface;
     let out = frame.value.par_chunks_mut(width).zip(frame.bias.par_chunks_mut(width));
-    state.pixels.par_chunks_mut(width).zip(out).enumerate().for_each(
+    state.pixels.par_chunks_mut(width).zip(out).enumerate().with_max_len(1).for_each(
         |(y, (stats, (row, bias)))| {
             if stop.load(Ordering::Relaxed) {
                 return;

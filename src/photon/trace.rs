@@ -19,8 +19,10 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Light paths per parallel work item.
-const CHUNK: u64 = 4096;
+/// Light paths per parallel work item: small enough that a pass has many more items than threads
+/// (rayon steals items one at a time, so no thread waits long on another's last one), large
+/// enough that an item's bookkeeping is negligible. The photons do not depend on it.
+const CHUNK: u64 = 1024;
 
 /// Settings of one photon pass.
 #[derive(Clone, Copy, Debug)]
@@ -79,6 +81,8 @@ pub struct Photons {
     pub(crate) surface_mis: Vec<PhotonMis>,
     /// … and each volume photon's.
     pub(crate) volume_mis: Vec<PhotonMis>,
+    /// The photons of each work item of the last pass, kept so that their buffers are reused.
+    items: Vec<Photons>,
 }
 
 impl Photons {
@@ -92,15 +96,38 @@ impl Photons {
         self.volume_mis.clear();
     }
 
-    fn append(&mut self, other: &Photons) {
-        self.surface.extend_from_slice(&other.surface);
-        self.volume.extend_from_slice(&other.volume);
-        self.surface_path.extend_from_slice(&other.surface_path);
-        self.volume_path.extend_from_slice(&other.volume_path);
-        self.paths.extend_from_slice(&other.paths);
-        self.surface_mis.extend_from_slice(&other.surface_mis);
-        self.volume_mis.extend_from_slice(&other.volume_mis);
+    /// Makes these photons the work items' `items`, in order, copying in parallel.
+    fn gather(&mut self, items: &[Photons]) {
+        concat(&mut self.surface, items, |p| &p.surface);
+        concat(&mut self.volume, items, |p| &p.volume);
+        concat(&mut self.surface_path, items, |p| &p.surface_path);
+        concat(&mut self.volume_path, items, |p| &p.volume_path);
+        concat(&mut self.paths, items, |p| &p.paths);
+        concat(&mut self.surface_mis, items, |p| &p.surface_mis);
+        concat(&mut self.volume_mis, items, |p| &p.volume_mis);
     }
+}
+
+/// Sets `out` to the concatenation of `field` of each of `items`, copying the parts in parallel.
+/// `out` keeps its earlier contents where it is long enough (they are all overwritten), so that a
+/// pass of about as many photons as the last one writes each element once.
+fn concat<T: Copy + Default + Send + Sync>(
+    out: &mut Vec<T>,
+    items: &[Photons],
+    field: impl Fn(&Photons) -> &Vec<T>,
+) {
+    let total = items.iter().map(|p| field(p).len()).sum();
+    out.truncate(total);
+    out.resize(total, T::default());
+    let mut rest = &mut out[..];
+    let mut parts = Vec::with_capacity(items.len());
+    for item in items {
+        let src = field(item);
+        let (part, tail) = rest.split_at_mut(src.len());
+        parts.push((part, &src[..]));
+        rest = tail;
+    }
+    parts.into_par_iter().with_max_len(1).for_each(|(part, src)| part.copy_from_slice(src));
 }
 
 /// Russian roulette after an event that turned throughput `before` into `after`: survive with
@@ -461,7 +488,7 @@ impl Traveller for Tracing<'_> {
     }
 }
 
-/// Runs the photon pass into `out` (cleared first), emitting photons by power or by a guide.
+/// Runs the photon pass into `out` (replacing what it held), emitting photons by power or by a guide.
 /// Returns `false` if `stop` was raised before it finished (the photons are then incomplete and
 /// must not be used).
 pub(crate) fn trace_photons(
@@ -472,11 +499,10 @@ pub(crate) fn trace_photons(
     stop: &AtomicBool,
     out: &mut Photons,
 ) -> bool {
-    out.clear();
-    if lights.is_empty() && scene.emissive_media.is_empty() {
-        return true;
-    }
-    if pass.mis.is_some() && lights.is_empty() {
+    if (lights.is_empty() && scene.emissive_media.is_empty())
+        || (pass.mis.is_some() && lights.is_empty())
+    {
+        out.clear();
         return true;
     }
     // Emitting media's share of the photons: their share of the power (none for the combined
@@ -487,30 +513,24 @@ pub(crate) fn trace_photons(
         Some(g) => Emitting::Guided(g),
         None => Emitting::ByPower(lights),
     };
-    let chunks = pass.paths.div_ceil(CHUNK);
-    let parts: Vec<Option<Photons>> = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
+    let chunks = pass.paths.div_ceil(CHUNK) as usize;
+    let mut items = std::mem::take(&mut out.items);
+    items.resize_with(chunks, Photons::default);
+    let finished = items.par_iter_mut().enumerate().with_max_len(1).all(|(c, local)| {
+        local.clear();
+        let c = c as u64;
+        for index in c * CHUNK..((c + 1) * CHUNK).min(pass.paths) {
+            // Path by path, as pixels are (`integrator::render_rows`).
             if stop.load(Ordering::Relaxed) {
-                return None;
+                return false;
             }
-            let mut local = Photons::default();
-            let end = ((c + 1) * CHUNK).min(pass.paths);
-            for index in c * CHUNK..end {
-                // Path by path, as pixels are (`integrator::render_rows`).
-                if stop.load(Ordering::Relaxed) {
-                    return None;
-                }
-                trace_path(scene, emitting, p_media, pass, pass.first_path + index, &mut local);
-            }
-            Some(local)
-        })
-        .collect();
-    for part in parts {
-        match part {
-            Some(p) => out.append(&p),
-            None => return false,
+            trace_path(scene, emitting, p_media, pass, pass.first_path + index, local);
         }
+        true
+    });
+    if finished {
+        out.gather(&items);
     }
-    true
+    out.items = items;
+    finished
 }

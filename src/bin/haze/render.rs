@@ -56,7 +56,9 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     // A resume continues what its partial records — image size, settings and output files —
     // unless the command line says otherwise.
     let resumed = args.resume.as_deref().map(Partial::read).transpose()?;
-    let mut scene = args.overrides.load_scene(&args.scene)?;
+    // Loading's parallel parts (grids, majorants, the BVH) run on the render's threads too.
+    let pool = thread_pool(args.overrides.threads)?;
+    let mut scene = pool.install(|| args.overrides.load_scene(&args.scene))?;
     let settings = settings_of(&args, resumed.as_ref(), &mut scene)?;
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         bail!("--exposure must be a positive number, got {}", args.exposure);
@@ -64,7 +66,6 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let outs = outputs(&args, resumed.as_ref())?;
     let start = start_of(&args, resumed, &settings, &outs.partial_path)?;
     let ranged = args.first_iteration.is_some() || args.resume.is_some() || outs.partial_only;
-    let pool = thread_pool(args.overrides.threads)?;
     let stop = interrupt.flag();
     if !args.quiet {
         // How each grid is stored (dense or bricks), so that memory is never a surprise.
