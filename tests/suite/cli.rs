@@ -382,6 +382,37 @@ fn bench_rays_reports_every_set_and_query() {
     assert!(!ok && err.contains("--threads 0"), "{err}");
 }
 
+/// `haze bench --scaling` times every phase of whole runs on 1 and 2 threads, with a serial
+/// fraction and predicted efficiencies for each, and refuses a single thread or no rounds.
+#[test]
+fn bench_scaling_reports_every_phase_on_both_thread_counts() {
+    let scene = scene_path("cornell-fog.toml");
+    let small = ["--resolution", "32x32", "-p", "2000", "-n", "2"];
+    let out = Command::new(env!("CARGO_BIN_EXE_haze"))
+        .args(["bench", scene.to_str().unwrap(), "--scaling", "--rounds", "1", "-j", "2"])
+        .args(small)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(text.contains("| phase | 1 thread (s) | 2 threads (s) |"), "{text}");
+    for phase in ["loading the scene", "photon trace", "volume photon map", "camera pass"] {
+        let row = text.lines().find(|l| l.starts_with(&format!("| {phase}")));
+        let row = row.unwrap_or_else(|| panic!("no row {phase}:\n{text}"));
+        // Times on both thread counts, a speed-up and a serial fraction in per cent.
+        let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+        let time = |c: &str| c.parse::<f64>().unwrap_or_else(|_| panic!("{c} in {row}"));
+        assert!(time(cells[2]) >= 0.0 && time(cells[3]) >= 0.0, "{row}");
+        assert!(cells[4].ends_with('×') && cells[5].ends_with('%'), "{row}");
+    }
+    assert!(text.lines().any(|l| l.starts_with("| whole run |")), "{text}");
+    let (ok, err) = haze(&["bench", scene.to_str().unwrap(), "--scaling", "-j", "1"]);
+    assert!(!ok && err.contains("at least 2 threads"), "{err}");
+    let (ok, err) =
+        haze(&["bench", scene.to_str().unwrap(), "--scaling", "--rounds", "0", "-j", "2"]);
+    assert!(!ok && err.contains("--rounds"), "{err}");
+}
+
 /// Where standard error is not a terminal (a log file, a pipe), a render prints plain progress
 /// lines — at the first iteration, then at most one every 5 s — with one rate and one ETA
 /// (issue 38: it printed nothing until the end, and the bar showed two rates); `-q` prints none.

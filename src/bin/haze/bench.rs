@@ -1,5 +1,6 @@
-//! `haze bench`: the time of each step of an iteration (photon pass, map builds, camera pass) on
-//! a scene, as a Markdown table. Built with the `profile` feature, it also reports the time spent
+//! `haze bench`: the time of each step of an iteration (photon pass, map builds, camera pass,
+//! film) on a scene, as a Markdown table; with `--scaling`, whole runs on 1 and N threads
+//! ([`crate::scaling`]). Built with the `profile` feature, it also reports the time spent
 //! in volume estimates (`cargo run --release --features profile -- bench SCENE`).
 
 use crate::shared::{Overrides, thread_pool};
@@ -17,6 +18,16 @@ pub(crate) struct BenchArgs {
     what: Option<What>,
     /// Scene file [default: scenes/cornell-box.toml].
     scene: Option<PathBuf>,
+    /// Thread scaling: whole runs (loading, the render and writing the image, as `haze render`
+    /// does them) on 1 thread and on `--threads` (default: every core), the time of each phase
+    /// at both, the serial fraction Amdahl's law gives each, and the efficiency it predicts at
+    /// 16 and 64 threads.
+    #[arg(long)]
+    scaling: bool,
+    /// With `--scaling`: rounds (the thread counts alternate within each; each phase's shortest
+    /// time counts).
+    #[arg(long, value_name = "R", default_value_t = 3, requires = "scaling")]
+    rounds: usize,
     #[command(flatten)]
     overrides: Overrides,
 }
@@ -105,6 +116,7 @@ impl Totals {
         t.surface_map += u.surface_map;
         t.volume_map += u.volume_map;
         t.camera += u.camera;
+        t.film += u.film;
         self.volume_estimates += u.volume_estimates.unwrap_or(0.0);
         self.stored += s.photons_stored;
         self.stored_volume += s.volume_photons_stored;
@@ -118,11 +130,14 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
         None => {}
     }
     let path = args.scene.unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
-    let scene = args.overrides.load_scene(&path)?;
+    if args.scaling {
+        return crate::scaling::run(&path, &args.overrides, args.rounds);
+    }
+    let pool = thread_pool(args.overrides.threads)?;
+    let scene = pool.install(|| args.overrides.load_scene(&path))?;
     let mut o = args.overrides.clone();
     o.settings.iterations = o.settings.iterations.or(Some(8));
     let settings = o.settings(&scene.settings)?;
-    let pool = thread_pool(o.threads)?;
     let mut totals = Totals::default();
     let mut first_pilot = 0.0;
     let mut on_iteration = |s: &Status| {
@@ -244,6 +259,7 @@ fn report(
         pixels / t.camera,
         per_it(t.camera)
     );
+    println!("| adding the image to the film | | {:.4} |", per_it(t.film));
     if media && cfg!(feature = "profile") {
         println!(
             "| … in {estimate} estimates (thread time / threads) | | {:.4} |",

@@ -7,6 +7,7 @@ mod lab;
 mod merge;
 mod rays;
 mod render;
+mod scaling;
 mod shared;
 mod signals;
 
