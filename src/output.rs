@@ -161,12 +161,11 @@ impl Image {
     pub fn write(&self, path: &Path, exposure: f32) -> Result<Vec<PathBuf>> {
         match extension(path).as_deref() {
             Some("exr") => {
+                // The preview only once the image is written: a failed write leaves both files
+                // as they were.
+                self.write_exr(path)?;
                 let png = preview_path(path);
-                // Side by side: the PNG's encoding is serial, the EXR's compression uses every
-                // core only where the image has enough blocks.
-                let (exr, preview) =
-                    rayon::join(|| self.write_exr(path), || self.write_png(&png, exposure));
-                exr.and(preview)?;
+                self.write_png(&png, exposure)?;
                 Ok(vec![path.to_path_buf(), png])
             }
             Some("png") => {

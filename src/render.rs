@@ -254,8 +254,9 @@ fn watch(
 pub const PILOT_PATHS: u64 = 1000;
 
 /// Bytes one iteration of a render of `scene` with `settings` is expected to need: the photons
-/// its light paths store (measured by tracing [`PILOT_PATHS`] of them; twice, for the photon maps
-/// built from them) and the image buffers. An estimate: paths vary. Refuses the settings a
+/// its light paths store (measured by tracing [`PILOT_PATHS`] of them; three times: the photon
+/// pass's lists, its work items' buffers, and the photon maps built from them) and the image
+/// buffers. An estimate: paths vary. Refuses the settings a
 /// render refuses ([`Error::Settings`]).
 pub fn memory_estimate(scene: &Scene, settings: &RenderSettings) -> Result<u64> {
     Ok(memory_need(scene, &Plan::new(scene, settings)?))
@@ -281,7 +282,7 @@ fn memory_need(scene: &Scene, plan: &Plan) -> u64 {
     let per_path = (surface as f64 * std::mem::size_of::<crate::photon::Photon>() as f64
         + volume as f64 * std::mem::size_of::<crate::photon::VolumePhoton>() as f64)
         / pilot.paths as f64;
-    image + (2.0 * per_path * plan.paths as f64) as u64
+    image + (3.0 * per_path * plan.paths as f64) as u64
 }
 
 /// What the photons of iteration `iteration` of a render with `settings` are used for: how many

@@ -489,8 +489,8 @@ impl Traveller for Tracing<'_> {
 }
 
 /// Runs the photon pass into `out` (replacing what it held), emitting photons by power or by a guide.
-/// Returns `false` if `stop` was raised before it finished (the photons are then incomplete and
-/// must not be used).
+/// Returns `false` if `stop` was raised before it finished (`out` is then empty). `out` keeps
+/// each work item's photons besides the pass's lists, so that the next pass reuses their buffers.
 pub(crate) fn trace_photons(
     scene: &Scene,
     lights: &LightSampler,
@@ -530,6 +530,9 @@ pub(crate) fn trace_photons(
     });
     if finished {
         out.gather(&items);
+    } else {
+        // Nothing of an earlier pass may pass for this one's.
+        out.clear();
     }
     out.items = items;
     finished

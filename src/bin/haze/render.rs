@@ -117,7 +117,8 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         );
     }
     let keep_partial = ranged || args.snapshot_every.is_some() || interrupt.name().is_some();
-    let written = write(&part, keep_partial)?;
+    // On the render's threads too: the image's layers and the EXR's compression are parallel.
+    let written = pool.install(|| write(&part, keep_partial))?;
     eprintln!("{}", summary(&part, &settings, &written, ranged, interrupt.name()));
     if interrupt.name().is_some() {
         eprintln!("{}", resume_hint(&args, &settings, started, &outs.partial_path));
