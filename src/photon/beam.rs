@@ -138,7 +138,6 @@ pub struct BeamMap {
     /// Scratch space, reused between builds.
     keys: Vec<u32>,
     count: Vec<u32>,
-    order: Vec<u32>,
     sort: CountingSort,
     spans: Vec<Span>,
     spare: Vec<VolumePhoton>,
@@ -288,7 +287,7 @@ impl BeamMap {
         }));
         // Photons per thinning cell, from a counting sort's bucket starts.
         let mut cells = std::mem::take(&mut self.count);
-        self.sort.sort(&self.keys, dims.element_product() as usize, &mut cells, &mut self.order);
+        self.sort.starts(&self.keys, dims.element_product() as usize, &mut cells);
         let kept = |i: usize, k: u32| {
             let k = k as usize;
             let keep = (t.budget as f64 / (cells[k + 1] - cells[k]) as f64).min(1.0);

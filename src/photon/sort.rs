@@ -14,7 +14,7 @@ use rayon::prelude::*;
 const GROUPS: usize = 1024;
 /// Items per work item.
 const ITEMS: usize = 1 << 14;
-/// Below this many items, the serial sort (the parallel one's bookkeeping would cost more).
+/// Below this many items, one thread sorts (the parallel sort's bookkeeping would cost more).
 const SERIAL_BELOW: usize = 1 << 15;
 
 /// Buffers of the sort, kept between sorts so that a render's builds reuse them.
@@ -37,13 +37,30 @@ impl CountingSort {
         start: &mut Vec<u32>,
         order: &mut Vec<u32>,
     ) {
+        order.clear();
+        order.resize(keys.len(), 0);
+        self.run(keys, buckets, start, Some(order));
+    }
+
+    /// The bucket starts of [`Self::sort`] alone, without ordering the items (a histogram).
+    pub(crate) fn starts(&mut self, keys: &[u32], buckets: usize, start: &mut Vec<u32>) {
+        self.run(keys, buckets, start, None);
+    }
+
+    fn run(
+        &mut self,
+        keys: &[u32],
+        buckets: usize,
+        start: &mut Vec<u32>,
+        order: Option<&mut [u32]>,
+    ) {
         debug_assert!(keys.par_iter().all(|&k| (k as usize) < buckets));
         start.clear();
         start.resize(buckets + 1, 0);
-        order.clear();
-        order.resize(keys.len(), 0);
+        start[buckets] = keys.len() as u32;
         if keys.len() < SERIAL_BELOW || buckets < 2 {
-            serial(keys, start, order);
+            let pairs = || keys.iter().enumerate().map(|(i, &k)| (i as u32, k as usize));
+            place(pairs, &mut start[..buckets], order);
             return;
         }
         let per = buckets.div_ceil(GROUPS.min(buckets));
@@ -52,20 +69,32 @@ impl CountingSort {
         let group_start = self.group_starts(groups);
         // Each group orders its items by bucket, into its own part of `order` and of `start`.
         let mut parts = Vec::with_capacity(groups);
-        let (mut rest, mut starts) = (&mut order[..], &mut start[..buckets]);
+        let mut starts = &mut start[..buckets];
+        let mut rest = order;
         for g in 0..groups {
-            let (part, tail) = rest.split_at_mut((group_start[g + 1] - group_start[g]) as usize);
+            let size = (group_start[g + 1] - group_start[g]) as usize;
+            let part = rest.take().map(|r| {
+                let (part, tail) = r.split_at_mut(size);
+                rest = Some(tail);
+                part
+            });
             let (s, s_tail) = starts.split_at_mut(per.min(starts.len()));
             parts.push((g, part, s));
-            (rest, starts) = (tail, s_tail);
+            starts = s_tail;
         }
         parts.into_par_iter().with_max_len(1).for_each(|(g, out, st)| {
-            self.order_group(keys, g, g * per, out, st);
+            let lo = g * per;
+            // Group g's items, gathered from the work items in order.
+            let pairs = || {
+                let each = self.local.iter().zip(&self.local_start);
+                let items = each.flat_map(move |(l, at)| &l[at[g] as usize..at[g + 1] as usize]);
+                items.map(move |&i| (i, keys[i as usize] as usize - lo))
+            };
+            place(pairs, st, out);
             for s in st.iter_mut() {
                 *s += group_start[g];
             }
         });
-        start[buckets] = keys.len() as u32;
     }
 
     /// Orders each work item's items by group (`per` buckets a group), in parallel.
@@ -77,21 +106,13 @@ impl CountingSort {
         work.enumerate().with_max_len(1).for_each(|(k, ((keys, local), at))| {
             at.clear();
             at.resize(groups + 1, 0);
-            for &key in keys {
-                at[key as usize / per] += 1;
-            }
-            // Ends of the groups, then (scattering backwards) their starts.
-            for g in 1..=groups {
-                at[g] += at[g - 1];
-            }
+            at[groups] = keys.len() as u32;
             local.clear();
             local.resize(keys.len(), 0);
             let first = (k * ITEMS) as u32;
-            for (i, &key) in keys.iter().enumerate().rev() {
-                let c = &mut at[key as usize / per];
-                *c -= 1;
-                local[*c as usize] = first + i as u32;
-            }
+            let pairs =
+                || keys.iter().enumerate().map(|(i, &key)| (first + i as u32, key as usize / per));
+            place(pairs, &mut at[..groups], Some(local));
         });
     }
 
@@ -109,49 +130,40 @@ impl CountingSort {
         }
         group_start
     }
-
-    /// Orders group `g`'s items, gathered from the work items in order, by bucket into `out`,
-    /// leaving in `st` (its buckets, the first being `lo`) where each bucket starts in `out`.
-    fn order_group(&self, keys: &[u32], g: usize, lo: usize, out: &mut [u32], st: &mut [u32]) {
-        let parts = || {
-            let each = self.local.iter().zip(&self.local_start);
-            each.map(move |(l, at)| &l[at[g] as usize..at[g + 1] as usize])
-        };
-        for part in parts() {
-            for &i in part {
-                st[keys[i as usize] as usize - lo] += 1;
-            }
-        }
-        for b in 1..st.len() {
-            st[b] += st[b - 1];
-        }
-        // Backwards, so that each bucket's items keep their order and `st` ends at the buckets'
-        // starts.
-        for part in parts().rev() {
-            for &i in part.iter().rev() {
-                let c = &mut st[keys[i as usize] as usize - lo];
-                *c -= 1;
-                out[*c as usize] = i;
-            }
-        }
-    }
 }
 
-/// The serial counting sort, the reference of [`CountingSort::sort`] (`start` and `order` sized
-/// and zeroed).
-fn serial(keys: &[u32], start: &mut [u32], order: &mut [u32]) {
-    for &k in keys {
-        start[k as usize + 1] += 1;
+/// The counting sort itself, on `(item, bucket)` pairs that `pairs` lists (the same each call):
+/// counts them into `counts` (zeroed, one entry per bucket), then places each item in `out` by
+/// bucket, keeping their order within a bucket; `counts[b]` ends as bucket b's first slot, with or
+/// without `out`.
+fn place<I: DoubleEndedIterator<Item = (u32, usize)>>(
+    pairs: impl Fn() -> I,
+    counts: &mut [u32],
+    out: Option<&mut [u32]>,
+) {
+    for (_, b) in pairs() {
+        counts[b] += 1;
     }
-    for b in 1..start.len() {
-        start[b] += start[b - 1];
+    // The buckets' ends …
+    for b in 1..counts.len() {
+        counts[b] += counts[b - 1];
     }
-    let buckets = start.len() - 1;
-    let mut cursor = start[..buckets].to_vec();
-    for (i, &k) in keys.iter().enumerate() {
-        let c = &mut cursor[k as usize];
-        order[*c as usize] = i as u32;
-        *c += 1;
+    // … and their starts: backwards, each item one slot below the last placed in its bucket.
+    match out {
+        Some(out) => {
+            for (item, b) in pairs().rev() {
+                counts[b] -= 1;
+                out[counts[b] as usize] = item;
+            }
+        }
+        None => {
+            for b in (1..counts.len()).rev() {
+                counts[b] = counts[b - 1];
+            }
+            if let Some(first) = counts.first_mut() {
+                *first = 0;
+            }
+        }
     }
 }
 
@@ -160,9 +172,30 @@ mod tests {
     use super::*;
     use crate::rng::{Purpose, Sampler};
 
+    /// A serial counting sort written apart from [`place`] (forwards, with a cursor per bucket),
+    /// the reference (`start` and `order` sized and zeroed).
+    fn serial(keys: &[u32], start: &mut [u32], order: &mut [u32]) {
+        for &k in keys {
+            start[k as usize + 1] += 1;
+        }
+        for b in 1..start.len() {
+            start[b] += start[b - 1];
+        }
+        let buckets = start.len() - 1;
+        let mut cursor = start[..buckets].to_vec();
+        for (i, &k) in keys.iter().enumerate() {
+            let c = &mut cursor[k as usize];
+            order[*c as usize] = i as u32;
+            *c += 1;
+        }
+    }
+
     fn check(keys: &[u32], buckets: usize) {
-        let (mut start, mut order) = (Vec::new(), Vec::new());
-        CountingSort::default().sort(keys, buckets, &mut start, &mut order);
+        let (mut start, mut order, mut starts) = (Vec::new(), Vec::new(), Vec::new());
+        let mut sort = CountingSort::default();
+        sort.sort(keys, buckets, &mut start, &mut order);
+        sort.starts(keys, buckets, &mut starts);
+        assert_eq!(starts, start, "starts alone, {} keys, {buckets} buckets", keys.len());
         let mut want_start = vec![0; buckets + 1];
         let mut want_order = vec![0; keys.len()];
         serial(keys, &mut want_start, &mut want_order);

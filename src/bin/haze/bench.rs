@@ -3,7 +3,7 @@
 //! ([`crate::scaling`]). Built with the `profile` feature, it also reports the time spent
 //! in volume estimates (`cargo run --release --features profile -- bench SCENE`).
 
-use crate::shared::{Overrides, thread_pool};
+use crate::shared::{Overrides, bench_scene, thread_pool};
 use anyhow::{Result, bail};
 use clap::Args;
 use haze::progress::{Status, StepTimes};
@@ -134,10 +134,7 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
         return crate::scaling::run(&path, &args.overrides, args.rounds);
     }
     let pool = thread_pool(args.overrides.threads)?;
-    let scene = pool.install(|| args.overrides.load_scene(&path))?;
-    let mut o = args.overrides.clone();
-    o.settings.iterations = o.settings.iterations.or(Some(8));
-    let settings = o.settings(&scene.settings)?;
+    let (scene, settings) = bench_scene(&pool, &path, &args.overrides)?;
     let mut totals = Totals::default();
     let mut first_pilot = 0.0;
     let mut on_iteration = |s: &Status| {

@@ -8,7 +8,7 @@
 //! contention for memory or shared cache lines — so the prediction is a bound of what the code
 //! allows, not a promise for a machine with other caches and memory.
 
-use crate::shared::{Overrides, thread_pool};
+use crate::shared::{Overrides, bench_scene, thread_pool};
 use anyhow::{Result, bail};
 use haze::progress::Status;
 use std::path::Path;
@@ -41,11 +41,8 @@ type Times = [f64; PHASES.len()];
 fn run_once(path: &Path, overrides: &Overrides, threads: usize) -> Result<Times> {
     let pool = thread_pool(Some(threads))?;
     let whole = Instant::now();
-    let scene = pool.install(|| overrides.load_scene(path))?;
+    let (scene, settings) = bench_scene(&pool, path, overrides)?;
     let load = whole.elapsed().as_secs_f64();
-    let mut o = overrides.clone();
-    o.settings.iterations = o.settings.iterations.or(Some(8));
-    let settings = o.settings(&scene.settings)?;
     let mut steps = [0.0f64; 6];
     let mut on_iteration = |s: &Status| {
         let t = &s.times;

@@ -74,6 +74,20 @@ impl Overrides {
     }
 }
 
+/// The scene at `path`, loaded on `pool`'s threads, and its settings under the command line's,
+/// with 8 iterations unless it says otherwise: what every kind of scene benchmark renders.
+pub(crate) fn bench_scene(
+    pool: &rayon::ThreadPool,
+    path: &Path,
+    overrides: &Overrides,
+) -> Result<(Scene, RenderSettings)> {
+    let scene = pool.install(|| overrides.load_scene(path))?;
+    let mut o = overrides.clone();
+    o.settings.iterations = o.settings.iterations.or(Some(8));
+    let settings = o.settings(&scene.settings)?;
+    Ok((scene, settings))
+}
+
 /// Seconds between two plain progress lines ([`LogLines`]).
 const LOG_EVERY: f64 = 5.0;
 
