@@ -52,6 +52,13 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// An input image (an environment map) could not be used.
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// A render or output setting is impossible.
     Settings(String),
     /// Writing an image failed.
@@ -77,6 +84,7 @@ impl Error {
             }
             Error::Mesh { path, message }
             | Error::Volume { path, message }
+            | Error::Image { path, message }
             | Error::Output { path, message } => format!("{}: {message}", path.display()),
             Error::Settings(message) => message.clone(),
         }

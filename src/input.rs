@@ -48,3 +48,63 @@ fn refusal(path: &Path, message: String) -> Error {
         error: std::io::Error::new(std::io::ErrorKind::InvalidInput, message),
     }
 }
+
+/// Reads the first RGB layer of the OpenEXR file at `path` (`what` names it in messages): width,
+/// height and texels, row-major from the top ([`rgb_exr_from_bytes`]). The file is refused if it
+/// is larger than 16 bytes a texel of `max_texels` (uncompressed float RGBA) and 1 MiB of header.
+pub(crate) fn read_rgb_exr(
+    path: &Path,
+    max_texels: u64,
+    what: &str,
+) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    let bytes = read_bounded(path, 16 * max_texels + (1 << 20), what)?;
+    rgb_exr_from_bytes(&bytes, path, max_texels, what)
+}
+
+/// The first RGB layer of an OpenEXR file's `bytes` (`path` names it in errors). The header is
+/// read first and an image of more than `max_texels` refused before any pixel buffer is
+/// allocated (the reader sizes its buffers from the declared data window); a panic of the exr
+/// crate on a corrupt file is an error, not a crash.
+pub(crate) fn rgb_exr_from_bytes(
+    bytes: &[u8],
+    path: &Path,
+    max_texels: u64,
+    what: &str,
+) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    use exr::prelude::*;
+    let err = |m: String| crate::error::Error::Image { path: path.to_path_buf(), message: m };
+    let cursor = || std::io::Cursor::new(bytes);
+    let meta =
+        std::panic::catch_unwind(|| exr::meta::MetaData::read_from_buffered(cursor(), false))
+            .map_err(|_| err("cannot read as an OpenEXR image: its header is corrupt".into()))?
+            .map_err(|e| err(format!("cannot read as an OpenEXR image: {e}")))?;
+    let mut total = 0u64;
+    for header in meta.headers.iter() {
+        let size = header.layer_size;
+        total = total.saturating_add((size.width() as u64).saturating_mul(size.height() as u64));
+    }
+    if total > max_texels {
+        return Err(err(format!(
+            "its header declares {total} pixels, more than haze reads as {what} ({max_texels})"
+        )));
+    }
+    let image = std::panic::catch_unwind(|| {
+        read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgb_channels(
+                |res, _| (res.width(), vec![[0.0f32; 3]; res.width() * res.height()]),
+                |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b): (f32, f32, f32)| {
+                    px[pos.y() * *w + pos.x()] = [r, g, b];
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(cursor())
+    })
+    .map_err(|_| err("cannot read as an RGB OpenEXR image: the file is corrupt".into()))?
+    .map_err(|e| err(format!("cannot read as an RGB OpenEXR image: {e}")))?;
+    let layer = image.layer_data;
+    let (w, h) = (layer.size.width() as u32, layer.size.height() as u32);
+    Ok((w, h, layer.channel_data.pixels.1))
+}

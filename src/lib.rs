@@ -119,6 +119,12 @@ pub mod fuzzing {
         crate::scene::shape::obj_from_bytes(bytes, Path::new("fuzz.obj")).and(ply).map(|_| ())
     }
 
+    /// The environment-map loader (OpenEXR header check, the exr crate, texel checks) on a
+    /// file's bytes.
+    pub fn envmap(bytes: &[u8]) -> crate::Result<()> {
+        crate::scene::EnvMap::from_bytes(bytes, Path::new("fuzz.exr")).map(|_| ())
+    }
+
     /// The OpenVDB loader (header check, vdb-rs on the header, haze's tree reader, checks, the
     /// copy) on a file's bytes: grid `density`, then component 1 of a vector grid `albedo`.
     pub fn vdb(bytes: &[u8]) -> crate::Result<()> {

@@ -238,6 +238,10 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
         path.beta * le
     }
 
+    fn environment(&mut self, path: &EyePath, le: Rgb) -> Rgb {
+        path.beta * le
+    }
+
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
         let wo = -path.ray.d;
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };

@@ -164,7 +164,7 @@ impl Combined {
             seed: self.plan.seed,
             iteration: i,
             max_bounces: self.plan.max_bounces,
-            beyond_last: self.lights.has_area_lights() || scene.has_emissive_media(),
+            beyond_last: self.lights.reachable() || scene.has_emissive_media(),
             only,
             // With only merges, and merges at the first vertex only, nothing deeper counts
             // (but the light of emitting media).
@@ -392,6 +392,25 @@ impl CombinedEye<'_> {
         le * ctx.w(hit_weight(nee, e, self.carry))
     }
 
+    /// The radiance `le` of the environment light the path reached along its ray, weighed as
+    /// [`Self::emission_weighted`] (`photon/trace.rs`, `emitted`: the environment's vertex is
+    /// measured by direction).
+    fn environment_weighted(&self, path: &EyePath, le: Rgb) -> Rgb {
+        let ctx = self.ctx;
+        if !ctx.counts(Technique::Hit) {
+            return Rgb::ZERO;
+        }
+        let Some((li, _)) = ctx.scene.environment() else { return Rgb::ZERO };
+        let wi = path.ray.d;
+        let light = &ctx.scene.lights[li];
+        let (e, _) = emitted(ctx.lights.emission_prob(li), light, Vec3::ZERO, -wi);
+        let nee = self
+            .from
+            .as_ref()
+            .map_or(0.0, |(r, p_eye)| ctx.lights.pdf_environment(&ctx.scene.lights, r, wi) / p_eye);
+        le * ctx.w(hit_weight(nee, e, self.carry))
+    }
+
     /// Whether the path merges at its next vertex (and along the segment to it).
     fn merges(&self) -> bool {
         self.first || self.ctx.kernels.deep
@@ -609,10 +628,10 @@ impl CombinedEye<'_> {
             return Rgb::ZERO;
         }
         let n = point.and_then(|pt| pt.n).unwrap_or(Vec3::ZERO);
-        let (e, pos) = emitted(ctx.lights.emission_prob(li), light, n, -ls.wi);
+        let (e, pdfs) = emitted(ctx.lights.emission_prob(li), light, n, -ls.wi);
         // The light paths evaluate the same density at the same receiver (`photon/trace.rs`).
         let x0 = point.map_or(r.p, |pt| pt.p);
-        let nee = nee_density(light, p_pick, pos, x0, r.p);
+        let nee = nee_density(light, p_pick, pdfs, x0, r.p);
         let hit = if e.cos > 0.0 { at.p_eye(ls.wi) * e.cos / nee } else { 0.0 };
         let (gamma, p_light) = (at.gamma(ls.wi), at.p_light(ls.wi));
         let w = ctx.w(nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in));
@@ -622,6 +641,13 @@ impl CombinedEye<'_> {
         let tr = super::direct::shadow(ctx.scene, r.p, ls.wi, ls.dist, medium, s);
         f * ls.value * tr * (w / p_pick)
     }
+}
+
+/// The environment's radiance along the path's ray, if the scene has one and the path may see
+/// it (the walker's rule: not on a camera ray where it is hidden).
+fn sky(path: &EyePath) -> Option<Rgb> {
+    let (_, env) = path.scene.environment()?;
+    (path.depth > 0 || env.visible).then(|| env.radiance(path.ray.d))
 }
 
 /// Merges that can weigh at least this much are always gathered; below, by Russian roulette
@@ -642,13 +668,16 @@ impl EyeVisitor for CombinedEye<'_> {
         // its end and the choice of where the path goes on.
         let tr = m.segment(o, d, t_max, BEAM_SEGMENT_RATE, &mut path.s);
         self.beam(path, m, id, t_max, &tr);
-        if let Some(hit) = end {
-            // The emitter the segment ends on, by its expected value over that choice.
-            if let Some(le) = path.scene.le(hit, -d) {
-                let l = path.beta * tr.at(t_max) * self.emission_weighted(path, hit, le);
-                self.count(path, l, Technique::Hit);
-                self.counted = true;
-            }
+        // The emitter the segment ends on, or the environment it leaves the scene towards, by its
+        // expected value over that choice.
+        let reached = match end {
+            Some(hit) => path.scene.le(hit, -d).map(|le| self.emission_weighted(path, hit, le)),
+            None => sky(path).map(|le| self.environment_weighted(path, le)),
+        };
+        if let Some(l) = reached {
+            let l = path.beta * tr.at(t_max) * l;
+            self.count(path, l, Technique::Hit);
+            self.counted = true;
         }
         let Some(t) = self.collide(path, m, &tr, t_max) else { return Next::Continue };
         self.counted = false;
@@ -679,6 +708,16 @@ impl EyeVisitor for CombinedEye<'_> {
         }
         // The walker adds it to the path.
         let l = path.beta * self.emission_weighted(path, hit, le);
+        self.tally[Technique::Hit as usize] += l;
+        l
+    }
+
+    fn environment(&mut self, path: &EyePath, le: Rgb) -> Rgb {
+        if std::mem::take(&mut self.counted) {
+            // Counted at the end of the segment in the medium that led here.
+            return Rgb::ZERO;
+        }
+        let l = path.beta * self.environment_weighted(path, le);
         self.tally[Technique::Hit as usize] += l;
         l
     }

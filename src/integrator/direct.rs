@@ -28,14 +28,27 @@ enum Crossing {
     Blocked,
 }
 
+/// What [`cross`] looks for.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Query {
+    /// A shadow ray: blocked by any surface that is not pass-through (the traversal stops at
+    /// the first it finds).
+    Shadow,
+    /// The nearest surface that is not pass-through, if the filter accepts it; a ray that
+    /// meets none is `Blocked`.
+    Surface,
+    /// The same, but a ray that meets none leaves the scene: `Reached`, with the transmittance
+    /// to infinity (towards an environment light).
+    SurfaceOrSky,
+}
+
 /// Follows `o + t d`, t ≤ `dist`, starting in `medium`, through pass-through interfaces,
 /// multiplying the transmittance of the media it crosses (exact for homogeneous media, ratio
-/// tracking for grids), to the first other surface or the end. `stop`: a shadow ray, blocked by
-/// any other surface (the traversal stops at the first it finds); otherwise the nearest other
-/// surface is the result if `wanted` accepts it, and a ray that meets none is `Blocked`. One
-/// traversal finds the interfaces and what lies beyond (instead of a closest-hit query from each
-/// interface to the next), and no transmittance is estimated for a ray that ends blocked, on an
-/// unwanted surface, or (looking for a surface) on none.
+/// tracking for grids), to the first other surface or the end; what it looks for is `query`'s
+/// (a surface is the result if `wanted` accepts it). One traversal finds the interfaces and what
+/// lies beyond (instead of a closest-hit query from each interface to the next), and no
+/// transmittance is estimated for a ray that ends blocked, on an unwanted surface, or (looking
+/// for a surface alone) on none.
 /// Grids' transmittance is estimated by ratio tracking at `rate` times their majorants.
 #[allow(clippy::too_many_arguments)]
 fn cross(
@@ -44,12 +57,13 @@ fn cross(
     d: Vec3,
     dist: f32,
     mut medium: Option<u32>,
-    stop: bool,
+    query: Query,
     wanted: impl Fn(&Hit) -> bool,
     rate: f32,
     s: &mut Sampler,
 ) -> Crossing {
     let mut crossings = SmallVec::<[Hit; 4]>::new();
+    let stop = query == Query::Shadow;
     // Two hits of one interface within the ray offset are one crossing (its shared edge).
     let merge = ray_offset(o) + ray_offset(o + d * dist.min(scene.diagonal()));
     let end = match scene.accel.through(
@@ -64,7 +78,7 @@ fn cross(
     ) {
         Passage::Blocked => return Crossing::Blocked,
         // A ray that looks for a surface and finds none: what it crossed does not matter.
-        Passage::Clear if !stop => return Crossing::Blocked,
+        Passage::Clear if query == Query::Surface => return Crossing::Blocked,
         Passage::Clear => None,
         Passage::Surface(hit) if wanted(&hit) => Some(hit),
         Passage::Surface(_) => return Crossing::Blocked,
@@ -112,7 +126,7 @@ fn shadow_at_rate(
     rate: f32,
     s: &mut Sampler,
 ) -> Rgb {
-    match cross(scene, o, d, dist, medium, true, |_| true, rate, s) {
+    match cross(scene, o, d, dist, medium, Query::Shadow, |_| true, rate, s) {
         Crossing::Reached(tr) => tr,
         Crossing::Surface(..) | Crossing::Blocked => Rgb::ZERO,
     }
@@ -230,26 +244,40 @@ pub(crate) fn media_next_event(
     unshadowed * tr * (total / MEDIA_CANDIDATES as f32 / target)
 }
 
+/// What a sampled direction reaches straight away (through pass-through interfaces).
+enum Source {
+    /// The front of an emitting shape, with the transmittance up to it and its radiance.
+    Shape(Hit, Rgb, Rgb),
+    /// Nothing: it leaves the scene towards the environment light, with the transmittance to
+    /// infinity and the environment's radiance.
+    Sky(Rgb, Rgb),
+}
+
 /// The first surface that is not pass-through along `o + t d` (starting in `medium`), if it is
-/// an emitter facing the ray, and the transmittance up to it; `None` if nothing is hit, the
-/// surface does not emit towards the ray, or no light gets through. For the direct light a
-/// sampled direction brings from an emitter.
+/// an emitter facing the ray, or the environment light if the ray leaves the scene; with the
+/// transmittance up to it. `None` if the ray meets any other surface, reaches nothing that
+/// emits towards it, or no light gets through. For the direct light a sampled direction brings.
 fn emitter_hit(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
     medium: Option<u32>,
     s: &mut Sampler,
-) -> Option<(Hit, Rgb, Rgb)> {
-    // Most sampled directions miss every emitter: a test against the emitters alone (a few
-    // primitives) spares them a traversal of the whole scene. Exact: the same ray and triangle
-    // arithmetic, and a ray that meets no emitter draws no random numbers below.
-    if !scene.emitters.occluded(o, d, f32::INFINITY) {
+) -> Option<Source> {
+    let sky = scene.environment().map(|(_, env)| env);
+    // Most sampled directions miss every emitter: without an environment light, a test against
+    // the emitters alone (a few primitives) spares them a traversal of the whole scene. Exact:
+    // the same ray and triangle arithmetic, and a ray that meets no emitter draws no random
+    // numbers below.
+    if sky.is_none() && !scene.emitters.occluded(o, d, f32::INFINITY) {
         return None;
     }
-    match cross(scene, o, d, f32::INFINITY, medium, false, |h| scene.le(h, -d).is_some(), 1.0, s) {
-        Crossing::Surface(hit, tr) => Some((hit, tr, scene.le(&hit, -d)?)),
-        Crossing::Reached(_) | Crossing::Blocked => None,
+    let query = if sky.is_some() { Query::SurfaceOrSky } else { Query::Surface };
+    let wanted = |h: &Hit| scene.le(h, -d).is_some();
+    match cross(scene, o, d, f32::INFINITY, medium, query, wanted, 1.0, s) {
+        Crossing::Surface(hit, tr) => Some(Source::Shape(hit, tr, scene.le(&hit, -d)?)),
+        Crossing::Reached(tr) => sky.map(|env| Source::Sky(tr, env.radiance(d))),
+        Crossing::Blocked => None,
     }
 }
 
@@ -279,7 +307,7 @@ pub(crate) fn surface_direct(
     if let Some((near, pool)) = media {
         l += media_next_event(scene, r.p, medium, near, pool, s, f);
     }
-    if !lights.has_area_lights() {
+    if !lights.reachable() {
         return l;
     }
     let u = s.next_2d();
@@ -289,8 +317,8 @@ pub(crate) fn surface_direct(
     l + emitted(scene, lights, &r, bs.wi, bs.pdf, bs.weight, medium, s)
 }
 
-/// Light from an emitter that the direction `wi`, sampled at `from` with density `pdf_dir`,
-/// reaches straight away (through pass-through interfaces), times `weight` and the
+/// Light from an emitter (or the environment) that the direction `wi`, sampled at `from` with
+/// density `pdf_dir`, reaches straight away (through pass-through interfaces), times `weight` and the
 /// transmittance, weighed by MIS against next-event estimation; zero if it reaches none.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn emitted(
@@ -304,8 +332,11 @@ pub(crate) fn emitted(
     s: &mut Sampler,
 ) -> Rgb {
     match emitter_hit(scene, from.p, wi, medium, s) {
-        Some((hit, tr, le)) => {
+        Some(Source::Shape(hit, tr, le)) => {
             weight * tr * le * emission_weight(scene, lights, &hit, -wi, from, pdf_dir)
+        }
+        Some(Source::Sky(tr, le)) => {
+            weight * tr * le * environment_weight(scene, lights, wi, from, pdf_dir)
         }
         None => Rgb::ZERO,
     }
@@ -326,6 +357,22 @@ pub(crate) fn emission_weight(
         return 1.0;
     }
     let p_l = lights.pdf_li(&scene.lights, hit.tag, from, hit.p, wo.dot(hit.ng));
+    if p_l <= 0.0 {
+        return 1.0;
+    }
+    power_heuristic(pdf_dir, p_l)
+}
+
+/// MIS weight of reaching the environment light along `wi` by a direction sampled with density
+/// `pdf_dir` at `from`, against next-event estimation at `from`.
+pub(crate) fn environment_weight(
+    scene: &Scene,
+    lights: &LightSampler,
+    wi: Vec3,
+    from: &Receiver,
+    pdf_dir: f32,
+) -> f32 {
+    let p_l = lights.pdf_environment(&scene.lights, from, wi);
     if p_l <= 0.0 {
         return 1.0;
     }
@@ -398,7 +445,8 @@ mod tests {
                     scene.shapes[h.tag as usize].emission.is_some() && (-d).dot(h.ng) > 0.0
                 };
                 // Start in no medium: which medium the origin lies in does not change geometry.
-                let full = cross(&scene, o, d, f32::INFINITY, None, false, emits, 1.0, &mut s);
+                let query = Query::Surface;
+                let full = cross(&scene, o, d, f32::INFINITY, None, query, emits, 1.0, &mut s);
                 let kept = scene.emitters.occluded(o, d, f32::INFINITY);
                 if let Crossing::Surface(..) = full {
                     reached += 1;

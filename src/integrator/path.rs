@@ -18,7 +18,7 @@
 //! chains from point-like lights (caustics) are not found by next-event estimation: that is the
 //! known weakness photon mapping is for.
 
-use super::direct::{emission_weight, next_event};
+use super::direct::{emission_weight, environment_weight, next_event};
 use super::frame::StepTimes;
 use super::single::single_scattering;
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
@@ -145,6 +145,17 @@ impl EyeVisitor for PathEye<'_> {
             path.beta
                 * le
                 * emission_weight(path.scene, self.lights, hit, -path.ray.d, from, *pdf_dir)
+        } else {
+            Rgb::ZERO
+        }
+    }
+
+    fn environment(&mut self, path: &EyePath, le: Rgb) -> Rgb {
+        if self.count_emission {
+            path.beta * le
+        } else if let Some((from, pdf_dir)) = &self.scattered_from {
+            let w = environment_weight(path.scene, self.lights, path.ray.d, from, *pdf_dir);
+            path.beta * le * w
         } else {
             Rgb::ZERO
         }

@@ -210,7 +210,7 @@ fn in_scattered(
     }
     // Phase sampling: an emitter the sampled direction reaches, weighed against light sampling
     // (only area lights can be reached).
-    if !lights.has_area_lights() {
+    if !lights.reachable() {
         return sigma_s * (l * ratio);
     }
     let ps = phase.sample(d, s.next_2d());

@@ -75,6 +75,11 @@ pub(crate) trait EyeVisitor {
     /// the path's radiance, throughput included.
     fn emission(&mut self, path: &EyePath, hit: &Hit, le: Rgb) -> Rgb;
 
+    /// The path left the scene along its ray and reached the environment light, of radiance
+    /// `le` that way (not called where the environment is hidden from camera rays and the path
+    /// is one); returns what it adds to the path's radiance, throughput included.
+    fn environment(&mut self, path: &EyePath, le: Rgb) -> Rgb;
+
     /// The path reached a diffuse surface (`material`) at `hit`.
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next;
 
@@ -195,6 +200,16 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
         if let Some(le) = scene.le(hit, -self.path.ray.d) {
             self.path.l += self.visitor.emission(self.path, hit, le);
         }
+    }
+
+    /// The environment counts, but on a camera ray (no event yet) where it is hidden.
+    fn escaped(&mut self, scene: &Scene) {
+        let Some((_, env)) = scene.environment() else { return };
+        if self.path.depth == 0 && !env.visible {
+            return;
+        }
+        let le = env.radiance(self.path.ray.d);
+        self.path.l += self.visitor.environment(self.path, le);
     }
 
     /// A diffuse surface goes to the visitor, a specular one turns the path; a spent path ends.

@@ -60,7 +60,7 @@ const MAX_DEPTH: u32 = 10;
 /// Which pair of a light's emission uniforms the guide warps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Guided {
-    /// Where on the light (a directional light's cross-section).
+    /// Where on the light (a directional light's cross-section, an environment's disc).
     Position,
     /// Which way (point, spot and area lights).
     Direction,
@@ -69,7 +69,7 @@ pub(crate) enum Guided {
 /// The pair of uniforms guided for `light`.
 pub(crate) fn guided(light: &Light) -> Guided {
     match light {
-        Light::Directional { .. } => Guided::Position,
+        Light::Directional { .. } | Light::Environment(_) => Guided::Position,
         _ => Guided::Direction,
     }
 }

@@ -12,7 +12,7 @@ use crate::estimate::mis::{Emitted, Kernels, LightMis, Site};
 use crate::math::{Rgb, offset_origin};
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
-use crate::scene::light::{Emission, Light, LightSampler, Receiver};
+use crate::scene::light::{Emission, EmissionPdfs, Light, LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
 use crate::scene::step::{Travel, Traveller, Vertex, step};
 use glam::{Vec2, Vec3};
@@ -203,31 +203,39 @@ struct PathMis<'a> {
 
 /// How `light`, picked for emission with probability `p_light`, emits from a point of normal `n`
 /// in direction `d`, for the combined estimator's weights.
-/// Also the density of the origin on the light ([`EmissionPdfs::pos`](crate::scene::light::EmissionPdfs)).
-pub(crate) fn emitted(p_light: f32, light: &Light, n: Vec3, d: Vec3) -> (Emitted, f32) {
+/// Also the densities of the origin and direction ([`EmissionPdfs`]). An environment light's
+/// "cosine" is 1: an eye path reaches it by a direction, whatever point of its disc the light
+/// path left (`estimate/mis.rs` measures its vertex by direction).
+pub(crate) fn emitted(p_light: f32, light: &Light, n: Vec3, d: Vec3) -> (Emitted, EmissionPdfs) {
     let pdfs = light.pdf_emission(n, d);
-    let cos = if let Light::Area { .. } = light { n.dot(d).abs() } else { 0.0 };
-    (Emitted { emit: p_light * pdfs.pos * pdfs.dir, cos }, pdfs.pos)
+    let cos = match light {
+        Light::Area { .. } => n.dot(d).abs(),
+        Light::Environment(_) => 1.0,
+        _ => 0.0,
+    };
+    (Emitted { emit: p_light * pdfs.pos * pdfs.dir, cos }, pdfs)
 }
 
-/// Next-event estimation's density of the point `x0` of `light` (origin density `pos`) from the
-/// receiver at `x1`, times their squared distance, the light chosen there with probability
-/// `pick`: the `nee` of [`LightMis::first`] (a directional light: per area of its emitting
-/// rectangle, 1 / `pos`, instead of the squared distance).
-pub(crate) fn nee_density(light: &Light, pick: f32, pos: f32, x0: Vec3, x1: Vec3) -> f32 {
-    let d2 = match light {
-        Light::Directional { .. } => 1.0 / pos,
-        _ => (x1 - x0).length_squared(),
-    };
-    pick * pos * d2
+/// Next-event estimation's density of the point `x0` of `light` (emitted with densities
+/// `pdfs`) from the receiver at `x1`, times their squared distance, the light chosen there with
+/// probability `pick`: the `nee` of [`LightMis::first`] (a directional light: per area of its
+/// emitting rectangle, 1 / `pos`, instead of the squared distance; an environment light, whose
+/// vertex is a direction: `pick` times next-event estimation's density of the direction, which
+/// is the emission's `dir`).
+pub(crate) fn nee_density(light: &Light, pick: f32, pdfs: EmissionPdfs, x0: Vec3, x1: Vec3) -> f32 {
+    match light {
+        Light::Directional { .. } => pick,
+        Light::Environment(_) => pick * pdfs.dir,
+        _ => pick * pdfs.pos * (x1 - x0).length_squared(),
+    }
 }
 
 /// How a light path left its light.
 struct Start {
     light: usize,
-    /// Its origin, and the density of the origin on the light.
+    /// Its origin, and the densities of the origin and direction.
     x0: Vec3,
-    pos: f32,
+    pdfs: EmissionPdfs,
     e: Emitted,
 }
 
@@ -241,8 +249,8 @@ impl<'a> PathMis<'a> {
         light: &Light,
         e: &Emission,
     ) -> Self {
-        let (emitted, pos) = emitted(lights.emission_prob(li), light, e.n, e.d);
-        let start = Some(Start { light: li, x0: e.p, pos, e: emitted });
+        let (emitted, pdfs) = emitted(lights.emission_prob(li), light, e.n, e.d);
+        let start = Some(Start { light: li, x0: e.p, pdfs, e: emitted });
         Self { lights, kernels, start, here: LightMis::default(), carry: 0.0 }
     }
 
@@ -254,7 +262,7 @@ impl<'a> PathMis<'a> {
             Some(st) => {
                 let nee = r.map_or(0.0, |r| {
                     let pick = self.lights.prob(&r, st.light);
-                    nee_density(&scene.lights[st.light], pick, st.pos, st.x0, r.p)
+                    nee_density(&scene.lights[st.light], pick, st.pdfs, st.x0, r.p)
                 });
                 LightMis::first(st.e, nee, gamma)
             }

@@ -582,6 +582,22 @@ impl SceneBuilder {
                 }
                 check_color(key("irradiance"), *irradiance, None)?;
             }
+            LightKind::Environment { radiance, rotate, .. } => {
+                check_color(key("radiance"), *radiance, None)?;
+                check_point(key("rotate"), *rotate)?;
+                let earlier = self
+                    .lights
+                    .iter()
+                    .position(|(l, _)| matches!(l, LightKind::Environment { .. }));
+                if let Some(i) = earlier {
+                    return Err(invalid(
+                        key("type"),
+                        format!(
+                            "a scene has at most one environment light, and lights[{i}] is one"
+                        ),
+                    ));
+                }
+            }
         }
         self.lights.push((desc.kind, medium));
         Ok(())
@@ -620,6 +636,8 @@ impl SceneBuilder {
         let shapes: Vec<Shape> = self.shapes.into_iter().map(|(s, _)| s).collect();
         let passthrough =
             shapes.iter().map(|s| materials[s.material as usize] == Material::Interface).collect();
+        let environment =
+            lights.iter().position(|l| matches!(l, Light::Environment(_))).map(|i| i as u32);
         let mut area_light = vec![None; shapes.len()];
         for (i, l) in lights.iter().enumerate() {
             if let Light::Area { shape, .. } = l {
@@ -632,6 +650,7 @@ impl SceneBuilder {
             shapes,
             passthrough,
             area_light,
+            environment,
             lights,
             light_media,
             medium_names: self.media.iter().map(|(n, _)| n.clone()).collect(),
@@ -756,6 +775,11 @@ fn delta_light(l: &LightKind, bounds: (Vec3, Vec3)) -> Light {
         }
         LightKind::Directional { direction, irradiance } => {
             Light::directional(direction.normalize(), irradiance, bounds)
+        }
+        LightKind::Environment { radiance, ref map, rotate, visible } => {
+            let turn = glam::Mat3::from(shape::affine(Vec3::ONE, rotate, Vec3::ZERO).matrix3);
+            let env = light::Environment::new(map.clone(), radiance, turn, visible, bounds);
+            Light::Environment(Box::new(env))
         }
     }
 }

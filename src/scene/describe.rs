@@ -624,6 +624,19 @@ pub enum LightKind {
         /// Irradiance on a perpendicular plane (W/m²).
         irradiance: Rgb,
     },
+    /// Radiance arriving from infinitely far away: `radiance` (W/(m²·sr)) from every direction,
+    /// or times a latitude–longitude `map` ([`EnvMap`](crate::scene::EnvMap)), turned by
+    /// `rotate`. At most one per scene.
+    Environment {
+        /// The constant radiance, or the map's multiplier.
+        radiance: Rgb,
+        /// The radiance image, if any.
+        map: Option<std::sync::Arc<crate::scene::EnvMap>>,
+        /// Euler angles in degrees, about x, then y, then z (as shapes' `rotate`).
+        rotate: Vec3,
+        /// Whether camera rays that leave the scene see it (light it casts is unchanged).
+        visible: bool,
+    },
 }
 
 impl LightDesc {
@@ -659,6 +672,51 @@ impl LightDesc {
             direction: direction.into(),
             irradiance: irradiance.into_rgb(),
         })
+    }
+
+    /// An environment of constant radiance `radiance` (W/(m²·sr)) from every direction.
+    pub fn environment(radiance: impl IntoRgb) -> Self {
+        Self::of(LightKind::Environment {
+            radiance: radiance.into_rgb(),
+            map: None,
+            rotate: Vec3::ZERO,
+            visible: true,
+        })
+    }
+
+    /// An environment whose radiance is the latitude–longitude `map` (times
+    /// [`Self::scale`]; [`EnvMap::load`](crate::scene::EnvMap::load) reads one from OpenEXR).
+    pub fn environment_map(map: crate::scene::EnvMap) -> Self {
+        Self::of(LightKind::Environment {
+            radiance: Rgb::ONE,
+            map: Some(std::sync::Arc::new(map)),
+            rotate: Vec3::ZERO,
+            visible: true,
+        })
+    }
+
+    /// Multiplies an environment's radiance by `s`.
+    pub fn scale(mut self, s: impl IntoRgb) -> Self {
+        if let LightKind::Environment { radiance, .. } = &mut self.kind {
+            *radiance *= s.into_rgb();
+        }
+        self
+    }
+
+    /// Turns an environment: Euler angles in degrees about x, then y, then z.
+    pub fn rotate(mut self, degrees: impl Into<Vec3>) -> Self {
+        if let LightKind::Environment { rotate, .. } = &mut self.kind {
+            *rotate = degrees.into();
+        }
+        self
+    }
+
+    /// Whether camera rays that leave the scene see the environment (default true).
+    pub fn visible(mut self, seen: bool) -> Self {
+        if let LightKind::Environment { visible, .. } = &mut self.kind {
+            *visible = seen;
+        }
+        self
     }
 
     /// A spot light's smooth falloff from `degrees` to the cone's edge.

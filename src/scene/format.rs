@@ -353,11 +353,25 @@ pub struct DirectionalDef {
     pub medium: Option<String>,
 }
 
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub radiance: Option<ColorDef>,
+    pub file: Option<String>,
+    pub scale: Option<ColorDef>,
+    pub rotate: Option<[f32; 3]>,
+    pub visible: Option<bool>,
+    pub medium: Option<String>,
+}
+
 #[derive(Debug)]
 pub enum LightDef {
     Point(PointDef),
     Spot(SpotDef),
     Directional(DirectionalDef),
+    Environment(EnvironmentDef),
 }
 
 /// A whole scene file, with the byte span of every table for error messages.
@@ -655,10 +669,11 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         })
     })?;
     let lights = listed(root, "lights", |kind, v, key| {
-        Ok(match kind(v, key, &["point", "spot", "directional"])? {
+        Ok(match kind(v, key, &["point", "spot", "directional", "environment"])? {
             "point" => LightDef::Point(typed(v, key)?),
             "spot" => LightDef::Spot(typed(v, key)?),
-            _ => LightDef::Directional(typed(v, key)?),
+            "directional" => LightDef::Directional(typed(v, key)?),
+            _ => LightDef::Environment(typed(v, key)?),
         })
     })?;
     Ok(SceneFile { camera: (camera_def, camera.span()), render, materials, media, shapes, lights })

@@ -142,14 +142,14 @@ fn build(file: SceneFile, places: &Places, base_dir: &Path) -> Result<Scene> {
     for (s, _) in &file.shapes {
         b.shape(shape(s, base_dir))?;
     }
-    for (l, _) in &file.lights {
-        b.light(light(l))?;
+    for (i, (l, _)) in file.lights.iter().enumerate() {
+        b.light(light(l, &format!("lights[{i}]"), places, base_dir)?)?;
     }
     b.build()
 }
 
-/// A `[[lights]]` table as a description.
-fn light(l: &LightDef) -> LightDesc {
+/// A `[[lights]]` table as a description (an environment's map read from its file).
+fn light(l: &LightDef, key: &str, places: &Places, base_dir: &Path) -> Result<LightDesc> {
     let (kind, medium) = match l {
         LightDef::Point(d) => {
             (LightKind::Point { position: d.position.into(), power: color(d.power) }, &d.medium)
@@ -171,8 +171,41 @@ fn light(l: &LightDef) -> LightDesc {
             },
             &d.medium,
         ),
+        LightDef::Environment(d) => (environment(d, key, places, base_dir)?, &d.medium),
     };
-    LightDesc { kind, medium: medium.clone().map(MediumRef::Name) }
+    Ok(LightDesc { kind, medium: medium.clone().map(MediumRef::Name) })
+}
+
+/// An `environment` light's table: a constant `radiance` or a map `file`, times `scale`.
+fn environment(
+    d: &crate::scene::format::EnvironmentDef,
+    key: &str,
+    places: &Places,
+    base_dir: &Path,
+) -> Result<LightKind> {
+    let scale = d.scale.map_or(Rgb::ONE, color);
+    let (radiance, map) = match (&d.radiance, &d.file) {
+        (Some(r), None) => (color(*r) * scale, None),
+        (None, Some(f)) => {
+            let map = crate::scene::EnvMap::load(&base_dir.join(f))
+                .map_err(|e| places.error(format!("{key}.file"), e.to_string()))?;
+            (scale, Some(std::sync::Arc::new(map)))
+        }
+        (Some(_), Some(_)) => {
+            let m = "give either `radiance` (a constant environment) or `file` (a map), not both";
+            return Err(places.error(format!("{key}.file"), m));
+        }
+        (None, None) => {
+            let m = "an environment needs `radiance` (a constant) or `file` (an OpenEXR map)";
+            return Err(places.error(format!("{key}.radiance"), m));
+        }
+    };
+    Ok(LightKind::Environment {
+        radiance,
+        map,
+        rotate: d.rotate.map_or(glam::Vec3::ZERO, Into::into),
+        visible: d.visible.unwrap_or(true),
+    })
 }
 
 /// (σ_a, σ_s) from either (σ_a, σ_s) or (albedo, σ_t).

@@ -18,6 +18,7 @@ pub use describe::{
     GeometryDesc, GridLayout, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc,
     MediumId, MediumRef, ShapeDesc, TemperatureDesc, Transform, VoxelGrid,
 };
+pub use light::{EnvMap, Environment};
 pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
 
@@ -160,6 +161,8 @@ pub struct Scene {
     pub(crate) lights: Vec<Light>,
     /// For each shape, the index of its area light, if it emits.
     pub(crate) area_light: Vec<Option<u32>>,
+    /// The index of the environment light in `lights`, if there is one.
+    pub(crate) environment: Option<u32>,
     /// The medium each light emits into, aligned with `lights`.
     pub(crate) light_media: Vec<Option<u32>>,
     /// Participating media, indexed by medium ids.
@@ -273,6 +276,7 @@ impl Scene {
                 let kind = match l {
                     Light::Point { .. } => "a point light",
                     Light::Spot { .. } => "a spot light",
+                    Light::Environment(_) => "an environment light",
                     _ => "a directional light",
                 };
                 format!("lights[{}], {kind}", i - n_area)
@@ -335,6 +339,16 @@ impl Scene {
         let li = self.area_light.get(hit.tag as usize).copied().flatten()?;
         let le = self.lights[li as usize].le(hit.ng, w);
         (le != crate::math::Rgb::ZERO).then_some(le)
+    }
+
+    /// The environment light, if the scene has one: its index among the lights, and itself.
+    #[inline]
+    pub(crate) fn environment(&self) -> Option<(usize, &light::Environment)> {
+        let i = self.environment? as usize;
+        match &self.lights[i] {
+            Light::Environment(env) => Some((i, env)),
+            _ => None,
+        }
     }
 
     /// The medium at `p`: the one the first medium interface hit along a fixed direction says
@@ -436,7 +450,7 @@ impl Scene {
                         ));
                     }
                 }
-                Light::Directional { .. } => {}
+                Light::Directional { .. } | Light::Environment(_) => {}
             }
         }
         Ok(())

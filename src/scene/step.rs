@@ -94,6 +94,10 @@ pub(crate) trait Traveller {
     /// The path reached the surface at `hit`, whatever it is (before it crosses or scatters).
     fn reached(&mut self, _scene: &Scene, _hit: &Hit) {}
 
+    /// The path left the scene (its ray meets no surface, and it did not scatter in the medium
+    /// it was in): it ends, having reached the environment, if there is one.
+    fn escaped(&mut self, _scene: &Scene) {}
+
     /// The path reached `hit`, on a surface of `material` that is not pass-through: it
     /// scatters ([`Travel::leave`]; a reflection may also set the ray's origin and direction
     /// itself, the medium being unchanged) or ends.
@@ -112,7 +116,10 @@ pub(crate) fn step(scene: &Scene, path: &mut impl Traveller) -> Vertex {
             return vertex;
         }
     }
-    let Some(hit) = hit else { return Vertex::Stop };
+    let Some(hit) = hit else {
+        path.escaped(scene);
+        return Vertex::Stop;
+    };
     path.reached(scene, &hit);
     let material = &scene.materials[scene.shapes[hit.tag as usize].material as usize];
     if *material == Material::Interface {

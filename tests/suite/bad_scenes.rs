@@ -593,3 +593,46 @@ fn ascii_with(dir: &Path, face: &str) -> Vec<u8> {
     *lines.last_mut().unwrap() = face;
     (lines.join("\n") + "\n").into_bytes()
 }
+
+/// An environment light's table: a constant or a map, not both, not neither; one per scene;
+/// finite, non-negative radiance; a map file that exists, is OpenEXR, and holds finite,
+/// non-negative radiance — each error naming the scene, the key and the line (and the map).
+#[test]
+fn bad_environment_lights_name_the_key_and_line() {
+    let dir = temp_dir("bad-environment");
+    let scene =
+        |light: &str| format!("{CAMERA}{BODY}\n[[lights]]\ntype = \"environment\"\n{light}\n");
+    let load_in = |text: &str| Scene::from_toml(text, Path::new("bad.toml"), &dir);
+    let expect = |text: &str, needles: &[&str]| {
+        let msg = match load_in(text) {
+            Ok(_) => panic!("scene was accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        };
+        for n in needles {
+            assert!(msg.contains(n), "error `{msg}` does not mention `{n}`");
+        }
+        assert!(msg.starts_with("bad.toml"), "error `{msg}` does not name the file");
+    };
+    load_in(&scene("radiance = [0.2, 0.3, 0.5]")).unwrap();
+    expect(&scene(""), &["lights[1].radiance", "needs", ":24"]);
+    expect(&scene("radiance = 1\nfile = \"sky.exr\""), &["lights[1].file", "not both"]);
+    expect(&scene("radiance = -1"), &["lights[1].radiance", "negative"]);
+    expect(&scene("radiance = nan"), &["lights[1].radiance", "finite"]);
+    expect(&scene("radiance = 1\nrotate = [0, inf, 0]"), &["lights[1].rotate", "finite"]);
+    expect(&scene("radiance = 1\nvisible = 3"), &["visible"]);
+    let two =
+        format!("{}[[lights]]\ntype = \"environment\"\nradiance = 2\n", scene("radiance = 1"));
+    expect(&two, &["lights[2].type", "at most one environment", "lights[1]"]);
+    expect(&scene("file = \"missing.exr\""), &["lights[1].file", "missing.exr"]);
+    std::fs::write(dir.join("junk.exr"), b"not an exr at all").unwrap();
+    expect(&scene("file = \"junk.exr\""), &["lights[1].file", "junk.exr", "OpenEXR"]);
+    // A map with a negative texel, written by haze's own EXR writer.
+    let base = load(&format!("{CAMERA}{BODY}")).unwrap();
+    let settings =
+        haze::settings::RenderSettings { iterations: Some(1), photons: 100, ..Default::default() };
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let mut img = haze::render(&base, &settings, &mut haze::progress::Silent, &stop).unwrap();
+    img.pixels[37] = [0.5, -1.0, 0.5];
+    img.write_exr(&dir.join("negative.exr")).unwrap();
+    expect(&scene("file = \"negative.exr\""), &["lights[1].file", "texel (5, 1)", "non-negative"]);
+}

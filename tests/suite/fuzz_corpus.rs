@@ -137,3 +137,11 @@ fn vdb_corpus_and_its_mutations_never_panic() {
         let _ = haze::fuzzing::vdb(b);
     });
 }
+
+#[test]
+fn envmap_corpus_and_its_mutations_never_panic() {
+    haze::fuzzing::envmap(&corpus("envmap")[0].1).unwrap();
+    replay("envmap", 300, |b| {
+        let _ = haze::fuzzing::envmap(b);
+    });
+}

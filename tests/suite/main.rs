@@ -9,6 +9,7 @@ mod common;
 mod converge;
 mod determinism;
 mod distributed;
+mod environment;
 mod fuzz_corpus;
 mod independent;
 mod layers;

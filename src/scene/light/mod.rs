@@ -25,10 +25,12 @@
 //! irradiance = [3, 3, 3]
 //! ```
 
+pub(crate) mod environment;
 pub(crate) mod media;
 mod sampler;
 mod tree;
 
+pub use environment::{EnvMap, Environment};
 pub(crate) use sampler::LightSampler;
 pub(crate) use tree::{Receiver, Segment};
 
@@ -124,6 +126,9 @@ pub enum Light {
         edge_s: Vec3,
         edge_t: Vec3,
     },
+    /// Radiance from infinitely far away in every direction: a constant, a map, a sky
+    /// (`environment.rs`).
+    Environment(Box<Environment>),
     /// A shape that emits radiance `radiance` from its front side.
     Area {
         /// Index of the emitting shape.
@@ -208,6 +213,7 @@ impl Light {
                 *irradiance * edge_s.cross(*edge_t).length()
             }
             Light::Area { radiance, emitter, .. } => *radiance * PI * emitter.area(),
+            Light::Environment(env) => env.power(),
         }
     }
 
@@ -231,6 +237,10 @@ impl Light {
                 let (p, n) = emitter.sample_point(u_pick, u_pos);
                 (p, Frame::new(n).to_world(sample_cosine_hemisphere(u_dir)), n, self.power())
             }
+            Light::Environment(env) => {
+                let (p, d, beta) = env.sample_emission(u_pos, u_dir);
+                (p, d, Vec3::ZERO, beta)
+            }
         };
         Emission { p, d, n, beta }
     }
@@ -253,6 +263,7 @@ impl Light {
                 (1.0 / edge_s.cross(*edge_t).length(), 1.0)
             }
             Light::Area { emitter, .. } => (1.0 / emitter.area(), n.dot(d).max(0.0) / PI),
+            Light::Environment(env) => (1.0 / env.disc_area(), env.pdf(-d)),
         };
         EmissionPdfs { pos, dir }
     }
@@ -303,7 +314,7 @@ impl Light {
     pub fn sample_li(&self, p: Vec3, s: &mut Sampler) -> Option<LightSample> {
         match self.sample_point(s) {
             Some(point) => self.li_from(p, &point),
-            None => self.li_from_infinity(),
+            None => self.li_from_infinity(s),
         }
     }
 
@@ -315,7 +326,7 @@ impl Light {
             Light::Point { position, .. } | Light::Spot { position, .. } => {
                 Some(LightPoint { p: *position, n: None })
             }
-            Light::Directional { .. } => None,
+            Light::Directional { .. } | Light::Environment(_) => None,
             Light::Area { emitter, .. } => {
                 let (q, n) = emitter.sample_point(s.next_f32(), s.next_2d());
                 Some(LightPoint { p: q, n: Some(n) })
@@ -355,7 +366,7 @@ impl Light {
                     pdf: Some(d2 / (cos_l * area)),
                 })
             }
-            Light::Directional { .. } => self.li_from_infinity(),
+            Light::Directional { .. } | Light::Environment(_) => None,
         }
     }
 
@@ -384,8 +395,9 @@ impl Light {
         (to - from).length_squared() / (cos_l * area)
     }
 
-    /// Light of a directional light, arriving from infinity.
-    fn li_from_infinity(&self) -> Option<LightSample> {
+    /// Light of a directional or environment light, arriving from infinity: an environment's
+    /// direction drawn by its density (`None` where that is zero), its radiance over the density.
+    fn li_from_infinity(&self, s: &mut Sampler) -> Option<LightSample> {
         match self {
             Light::Directional { direction, irradiance, .. } => Some(LightSample {
                 wi: -*direction,
@@ -393,6 +405,11 @@ impl Light {
                 value: *irradiance,
                 pdf: None,
             }),
+            Light::Environment(env) => {
+                let (wi, pdf) = env.sample(s.next_2d())?;
+                let value = env.radiance(wi) / pdf;
+                Some(LightSample { wi, dist: f32::INFINITY, value, pdf: Some(pdf) })
+            }
             _ => None,
         }
     }

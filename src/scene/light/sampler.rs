@@ -21,6 +21,8 @@ pub struct LightSampler {
     tree: LightTree,
     /// For each shape, the index of its area light and that light's area, if it emits.
     area_lights: Vec<Option<(usize, f32)>>,
+    /// The index of the environment light, if there is one.
+    environment: Option<usize>,
 }
 
 impl LightSampler {
@@ -40,7 +42,8 @@ impl LightSampler {
                 area_lights[*shape as usize] = Some((i, emitter.area()));
             }
         }
-        Self { cdf, total, tree: LightTree::new(lights), area_lights }
+        let environment = lights.iter().position(|l| matches!(l, Light::Environment(_)));
+        Self { cdf, total, tree: LightTree::new(lights), area_lights, environment }
     }
 
     /// The area light of shape `shape` and its area, if the shape emits.
@@ -48,9 +51,10 @@ impl LightSampler {
         self.area_lights.get(shape as usize).copied().flatten()
     }
 
-    /// True if some shape is an area light (which BSDF or phase sampling can reach).
-    pub fn has_area_lights(&self) -> bool {
-        self.area_lights.iter().any(Option::is_some)
+    /// True if a direction sampled by a BSDF or phase function can reach a light: some shape is
+    /// an area light, or an environment light surrounds the scene.
+    pub fn reachable(&self) -> bool {
+        self.environment.is_some() || self.area_lights.iter().any(Option::is_some)
     }
 
     /// Total emitted power of the lights (mean channel, W).
@@ -122,6 +126,18 @@ impl LightSampler {
     ) -> f32 {
         let Some((li, _)) = self.area_light(shape) else { return 0.0 };
         let pdf = lights[li].pdf_li(from.p, to, cos_l);
+        if pdf <= 0.0 {
+            return 0.0;
+        }
+        self.prob(from, li) * pdf
+    }
+
+    /// The density with which next-event estimation at `from` picks the direction `wi` towards
+    /// the environment light: P(environment | from) · its density of `wi`. Zero without one.
+    pub(crate) fn pdf_environment(&self, lights: &[Light], from: &Receiver, wi: Vec3) -> f32 {
+        let Some(li) = self.environment else { return 0.0 };
+        let Light::Environment(env) = &lights[li] else { return 0.0 };
+        let pdf = env.pdf(wi);
         if pdf <= 0.0 {
             return 0.0;
         }

@@ -33,7 +33,8 @@
 //! wasted sample. Directional lights sit beside the tree with importance E · max(0, n · ω_l) (their
 //! irradiance on the receiver): unlike their emitted power, which haze measures over the scene's
 //! cross-section, this does not depend on the size of the scene. The root of the tree and the
-//! directional lights are chosen among in proportion to their importance.
+//! directional lights are chosen among in proportion to their importance. An environment light
+//! sits beside them too, with the irradiance it brings the receiver (`environment.rs`).
 //!
 //! A second traversal serves single scattering along an eye segment in a medium, where the light
 //! is chosen for the whole segment before a distance is drawn towards it (equiangular sampling):
@@ -157,7 +158,7 @@ impl LightBounds {
                     theta_e: (theta_max - theta_o).max(0.0),
                 })
             }
-            Light::Directional { .. } => None,
+            Light::Directional { .. } | Light::Environment(_) => None,
             Light::Area { radiance, emitter, .. } => {
                 let phi = luminance(*radiance);
                 Some(match emitter {
@@ -331,8 +332,8 @@ pub(crate) struct LightTree {
     /// Per light of the scene: its path from the root (bit k set: the second child at depth k)
     /// and its depth, for lights in the tree.
     trails: Vec<Option<(u64, u32)>>,
-    /// Directional lights: index, importance without the receiver's cosine, direction of travel.
-    directional: Vec<(u32, f32, Vec3)>,
+    /// Lights at infinity (directional and environment lights), with their index.
+    directional: Vec<(u32, Infinite)>,
     lights: usize,
 }
 
@@ -360,8 +361,12 @@ impl LightTree {
                 (None, Light::Directional { direction, irradiance, .. }) => {
                     let e = luminance(*irradiance);
                     if e > 0.0 && e.is_finite() {
-                        tree.directional.push((i as u32, e, *direction));
+                        tree.directional.push((i as u32, Infinite::Parallel(e, *direction)));
                     }
+                }
+                (None, Light::Environment(env)) if env.importance.at(None) > 0.0 => {
+                    let importance = Box::new(env.importance.clone());
+                    tree.directional.push((i as u32, Infinite::Environment(importance)));
                 }
                 _ => {}
             }
@@ -568,12 +573,22 @@ impl LightTree {
 /// The largest f32 below 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
-/// A directional light's importance at `r`: its irradiance on the receiver.
+/// A light at infinity, for its importance.
+#[derive(Clone, Debug)]
+enum Infinite {
+    /// A directional light: its importance without the receiver's cosine, direction of travel.
+    Parallel(f32, Vec3),
+    /// An environment light's irradiance by normal.
+    Environment(Box<super::environment::EnvImportance>),
+}
+
+/// A light at infinity's importance at `r`: its irradiance on the receiver.
 #[inline]
-fn directional(&(_, e, direction): &(u32, f32, Vec3), r: &Receiver) -> f32 {
-    match r.n {
-        Some(n) => e * n.dot(-direction).max(0.0),
-        None => e,
+fn directional((_, light): &(u32, Infinite), r: &Receiver) -> f32 {
+    match (light, r.n) {
+        (Infinite::Parallel(e, direction), Some(n)) => e * n.dot(-*direction).max(0.0),
+        (Infinite::Parallel(e, _), None) => *e,
+        (Infinite::Environment(env), n) => env.at(n),
     }
 }
 
