@@ -165,6 +165,87 @@ fn check_color(key: String, c: Rgb, max: Option<f32>) -> Result<()> {
     Ok(())
 }
 
+/// The checks of a light's description; `key` makes the key of a field.
+fn check_light(kind: &LightKind, key: impl Fn(&str) -> String) -> Result<()> {
+    match kind {
+        LightKind::Point { position, power } => {
+            check_point(key("position"), *position)?;
+            check_color(key("power"), *power, None)?;
+        }
+        LightKind::Spot { position, look_at, power, cone_angle, falloff_start } => {
+            check_point(key("position"), *position)?;
+            check_point(key("look_at"), *look_at)?;
+            if (*look_at - *position).length_squared() == 0.0 {
+                return Err(invalid(key("look_at"), "must differ from position"));
+            }
+            check_color(key("power"), *power, None)?;
+            if !(*cone_angle > 0.0 && *cone_angle < 180.0) {
+                return Err(invalid(
+                    key("cone_angle"),
+                    format!("must lie in (0, 180) degrees, got {cone_angle}"),
+                ));
+            }
+            let start = falloff_start.unwrap_or(*cone_angle);
+            if !(start >= 0.0 && start <= *cone_angle) {
+                return Err(invalid(
+                    key("falloff_start"),
+                    format!("must lie in [0, cone_angle = {cone_angle}], got {start}"),
+                ));
+            }
+        }
+        LightKind::Directional { direction, irradiance } => {
+            check_point(key("direction"), *direction)?;
+            if direction.length_squared() == 0.0 {
+                return Err(invalid(key("direction"), "must not be zero"));
+            }
+            check_color(key("irradiance"), *irradiance, None)?;
+        }
+        LightKind::Environment { radiance, rotate, .. } => {
+            check_color(key("radiance"), *radiance, None)?;
+            check_point(key("rotate"), *rotate)?;
+        }
+        LightKind::Sky { params, scale, resolution, .. } => {
+            check_sky(params, *scale, *resolution, key)?
+        }
+    }
+    Ok(())
+}
+
+/// The checks of a sky's description.
+fn check_sky(
+    p: &light::SkyParams,
+    scale: Rgb,
+    resolution: u32,
+    key: impl Fn(&str) -> String,
+) -> Result<()> {
+    check_point(key("sun_direction"), p.sun)?;
+    if !(p.sun.length_squared() > 0.0 && p.sun.y >= 0.0) {
+        return Err(invalid(
+            key("sun_direction"),
+            format!(
+                "the sun must be at or above the horizon (elevation 0 to 90 degrees), got {}",
+                p.sun
+            ),
+        ));
+    }
+    let (lo, hi) = light::sky::TURBIDITY;
+    if !(p.turbidity >= lo && p.turbidity <= hi) {
+        return Err(invalid(
+            key("turbidity"),
+            format!("must lie in [{lo}, {hi}] (the model's range), got {}", p.turbidity),
+        ));
+    }
+    check_color(key("ground_albedo"), p.ground_albedo, Some(1.0))?;
+    check_color(key("scale"), scale, None)?;
+    if !(16..=8192).contains(&resolution) {
+        return Err(invalid(
+            key("resolution"),
+            format!("must lie in [16, 8192], got {resolution}"),
+        ));
+    }
+    Ok(())
+}
+
 fn check_point(key: String, p: Vec3) -> Result<()> {
     if !p.is_finite() {
         return Err(invalid(key, format!("must be finite, got {p}")));
@@ -549,54 +630,19 @@ impl SceneBuilder {
             Some(m) => Some(self.medium_id(key("medium"), m)?.0),
             None => None,
         };
-        match &desc.kind {
-            LightKind::Point { position, power } => {
-                check_point(key("position"), *position)?;
-                check_color(key("power"), *power, None)?;
-            }
-            LightKind::Spot { position, look_at, power, cone_angle, falloff_start } => {
-                check_point(key("position"), *position)?;
-                check_point(key("look_at"), *look_at)?;
-                if (*look_at - *position).length_squared() == 0.0 {
-                    return Err(invalid(key("look_at"), "must differ from position"));
-                }
-                check_color(key("power"), *power, None)?;
-                if !(*cone_angle > 0.0 && *cone_angle < 180.0) {
-                    return Err(invalid(
-                        key("cone_angle"),
-                        format!("must lie in (0, 180) degrees, got {cone_angle}"),
-                    ));
-                }
-                let start = falloff_start.unwrap_or(*cone_angle);
-                if !(start >= 0.0 && start <= *cone_angle) {
-                    return Err(invalid(
-                        key("falloff_start"),
-                        format!("must lie in [0, cone_angle = {cone_angle}], got {start}"),
-                    ));
-                }
-            }
-            LightKind::Directional { direction, irradiance } => {
-                check_point(key("direction"), *direction)?;
-                if direction.length_squared() == 0.0 {
-                    return Err(invalid(key("direction"), "must not be zero"));
-                }
-                check_color(key("irradiance"), *irradiance, None)?;
-            }
-            LightKind::Environment { radiance, rotate, .. } => {
-                check_color(key("radiance"), *radiance, None)?;
-                check_point(key("rotate"), *rotate)?;
-                let earlier = self
-                    .lights
-                    .iter()
-                    .position(|(l, _)| matches!(l, LightKind::Environment { .. }));
-                if let Some(i) = earlier {
-                    return Err(invalid(
-                        key("type"),
-                        format!(
-                            "a scene has at most one environment light, and lights[{i}] is one"
-                        ),
-                    ));
-                }
+        check_light(&desc.kind, key)?;
+        if matches!(desc.kind, LightKind::Environment { .. } | LightKind::Sky { .. }) {
+            let earlier = self.lights.iter().position(|(l, _)| {
+                matches!(l, LightKind::Environment { .. } | LightKind::Sky { .. })
+            });
+            if let Some(i) = earlier {
+                return Err(invalid(
+                    key("type"),
+                    format!(
+                        "a scene has at most one environment light (a sky is one), and lights[{i}] \
+                         is one"
+                    ),
+                ));
             }
         }
         self.lights.push((desc.kind, medium));
@@ -629,8 +675,10 @@ impl SceneBuilder {
         let emitters = bvh(&emitting, "emitters")?;
         let (lo, hi) = self.bounds(&prims);
         for (l, medium) in &self.lights {
-            light_media.push(*medium);
-            lights.push(delta_light(l, (lo, hi)));
+            for light in table_lights(l, (lo, hi)) {
+                light_media.push(*medium);
+                lights.push(light);
+            }
         }
         let materials: Vec<Material> = self.materials.into_iter().map(|(_, m)| m).collect();
         let shapes: Vec<Shape> = self.shapes.into_iter().map(|(s, _)| s).collect();
@@ -781,7 +829,31 @@ fn delta_light(l: &LightKind, bounds: (Vec3, Vec3)) -> Light {
             let env = light::Environment::new(map.clone(), radiance, turn, visible, bounds);
             Light::Environment(Box::new(env))
         }
+        LightKind::Sky { .. } => unreachable!("a sky is two lights (table_lights)"),
     }
+}
+
+/// The lights a `[[lights]]` table makes: one, or for a sky the sky dome (an environment light)
+/// and its sun (a directional light, unless left out or below the horizon).
+fn table_lights(l: &LightKind, bounds: (Vec3, Vec3)) -> Vec<Light> {
+    let LightKind::Sky { params, scale, resolution, sun, visible } = *l else {
+        return vec![delta_light(l, bounds)];
+    };
+    let (map, irradiance) = light::EnvMap::sky(&params, resolution, false);
+    let mut dome = light::Environment::new(
+        Some(std::sync::Arc::new(map)),
+        scale,
+        glam::Mat3::IDENTITY,
+        visible,
+        bounds,
+    );
+    dome.from_sky = true;
+    let mut lights = vec![Light::Environment(Box::new(dome))];
+    let irradiance = irradiance * scale;
+    if sun && irradiance.max_element() > 0.0 {
+        lights.push(Light::directional(-params.sun.normalize(), irradiance, bounds));
+    }
+    lights
 }
 
 /// The geometry a description asks for, transformed into the scene.

@@ -637,6 +637,21 @@ pub enum LightKind {
         /// Whether camera rays that leave the scene see it (light it casts is unchanged).
         visible: bool,
     },
+    /// A physical daylight sky (Preetham et al. 1999, `scene/light/sky.rs`) rendered to an
+    /// environment map of `resolution` × `resolution / 2` texels, and its sun as a directional
+    /// light, both times `scale`. Counts as the scene's environment light.
+    Sky {
+        /// The sun's position, the turbidity and the ground's albedo.
+        params: crate::scene::light::SkyParams,
+        /// Multiplies the sky's and the sun's radiance.
+        scale: Rgb,
+        /// Width of the map in texels (its height is half).
+        resolution: u32,
+        /// Whether the sun is a light too (false: the sky dome alone).
+        sun: bool,
+        /// Whether camera rays that leave the scene see the sky.
+        visible: bool,
+    },
 }
 
 impl LightDesc {
@@ -695,10 +710,55 @@ impl LightDesc {
         })
     }
 
-    /// Multiplies an environment's radiance by `s`.
+    /// A daylight sky with the sun at `elevation` degrees above the horizon and `azimuth`
+    /// degrees from +z towards +x; turbidity 3, ground albedo 0.3, a 512 × 256 map, the sun
+    /// included.
+    pub fn sky(elevation: f32, azimuth: f32) -> Self {
+        let (e, a) = (elevation.to_radians(), azimuth.to_radians());
+        let sun = Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos());
+        Self::of(LightKind::Sky {
+            params: crate::scene::light::SkyParams {
+                sun,
+                turbidity: 3.0,
+                ground_albedo: Rgb::splat(0.3),
+            },
+            scale: Rgb::ONE,
+            resolution: 512,
+            sun: true,
+            visible: true,
+        })
+    }
+
+    /// A sky's turbidity (1.7 … 10).
+    pub fn turbidity(mut self, t: f32) -> Self {
+        if let LightKind::Sky { params, .. } = &mut self.kind {
+            params.turbidity = t;
+        }
+        self
+    }
+
+    /// The albedo of a sky's ground.
+    pub fn ground_albedo(mut self, albedo: impl IntoRgb) -> Self {
+        if let LightKind::Sky { params, .. } = &mut self.kind {
+            params.ground_albedo = albedo.into_rgb();
+        }
+        self
+    }
+
+    /// Whether a sky's sun is a light too (default true).
+    pub fn with_sun(mut self, on: bool) -> Self {
+        if let LightKind::Sky { sun, .. } = &mut self.kind {
+            *sun = on;
+        }
+        self
+    }
+
+    /// Multiplies an environment's or a sky's radiance by `s`.
     pub fn scale(mut self, s: impl IntoRgb) -> Self {
-        if let LightKind::Environment { radiance, .. } = &mut self.kind {
-            *radiance *= s.into_rgb();
+        match &mut self.kind {
+            LightKind::Environment { radiance, .. } => *radiance *= s.into_rgb(),
+            LightKind::Sky { scale, .. } => *scale *= s.into_rgb(),
+            _ => {}
         }
         self
     }
@@ -711,9 +771,11 @@ impl LightDesc {
         self
     }
 
-    /// Whether camera rays that leave the scene see the environment (default true).
+    /// Whether camera rays that leave the scene see the environment or sky (default true).
     pub fn visible(mut self, seen: bool) -> Self {
-        if let LightKind::Environment { visible, .. } = &mut self.kind {
+        if let LightKind::Environment { visible, .. } | LightKind::Sky { visible, .. } =
+            &mut self.kind
+        {
             *visible = seen;
         }
         self

@@ -366,12 +366,30 @@ pub struct EnvironmentDef {
     pub medium: Option<String>,
 }
 
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkyDef {
+    #[serde(rename = "type")]
+    pub _kind: String,
+    pub elevation: Option<f32>,
+    pub azimuth: Option<f32>,
+    pub sun_direction: Option<[f32; 3]>,
+    pub turbidity: Option<f32>,
+    pub ground_albedo: Option<ColorDef>,
+    pub scale: Option<ColorDef>,
+    pub sun: Option<bool>,
+    pub visible: Option<bool>,
+    pub resolution: Option<u32>,
+    pub medium: Option<String>,
+}
+
 #[derive(Debug)]
 pub enum LightDef {
     Point(PointDef),
     Spot(SpotDef),
     Directional(DirectionalDef),
     Environment(EnvironmentDef),
+    Sky(SkyDef),
 }
 
 /// A whole scene file, with the byte span of every table for error messages.
@@ -669,11 +687,12 @@ pub fn read(text: &str) -> Result<SceneFile, FormatError> {
         })
     })?;
     let lights = listed(root, "lights", |kind, v, key| {
-        Ok(match kind(v, key, &["point", "spot", "directional", "environment"])? {
+        Ok(match kind(v, key, &["point", "spot", "directional", "environment", "sky"])? {
             "point" => LightDef::Point(typed(v, key)?),
             "spot" => LightDef::Spot(typed(v, key)?),
             "directional" => LightDef::Directional(typed(v, key)?),
-            _ => LightDef::Environment(typed(v, key)?),
+            "environment" => LightDef::Environment(typed(v, key)?),
+            _ => LightDef::Sky(typed(v, key)?),
         })
     })?;
     Ok(SceneFile { camera: (camera_def, camera.span()), render, materials, media, shapes, lights })

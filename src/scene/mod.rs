@@ -18,7 +18,7 @@ pub use describe::{
     GeometryDesc, GridLayout, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc,
     MediumId, MediumRef, ShapeDesc, TemperatureDesc, Transform, VoxelGrid,
 };
-pub use light::{EnvMap, Environment};
+pub use light::{EnvMap, Environment, SkyParams};
 pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
 
@@ -267,22 +267,32 @@ impl Scene {
     /// Where light `i` (as counted by [`Self::light_count`]) was defined and what it is, e.g.
     /// `shapes[7], an area light` or `lights[1], a spot light`.
     pub fn light_label(&self, i: usize) -> String {
-        let n_area = self.lights.iter().filter(|l| matches!(l, Light::Area { .. })).count();
-        match self.lights.get(i) {
-            Some(Light::Area { shape, .. }) => {
-                format!("{}, an area light", self.shapes[*shape as usize].label)
-            }
-            Some(l) => {
-                let kind = match l {
-                    Light::Point { .. } => "a point light",
-                    Light::Spot { .. } => "a spot light",
-                    Light::Environment(_) => "an environment light",
-                    _ => "a directional light",
-                };
-                format!("lights[{}], {kind}", i - n_area)
-            }
-            None => format!("no light {i}"),
+        let Some(light) = self.lights.get(i) else { return format!("no light {i}") };
+        if let Light::Area { shape, .. } = light {
+            return format!("{}, an area light", self.shapes[*shape as usize].label);
         }
+        // The `[[lights]]` table it came from: a sky's table makes two lights, its dome (an
+        // environment light) and its sun (the directional light right after it, if any).
+        let (mut table, mut after_sky) = (0, false);
+        for l in &self.lights[..i] {
+            match l {
+                Light::Area { .. } => continue,
+                Light::Directional { .. } if after_sky => {}
+                _ => table += 1,
+            }
+            after_sky = matches!(l, Light::Environment(env) if env.from_sky);
+        }
+        let sun = after_sky && matches!(light, Light::Directional { .. });
+        let kind = match light {
+            Light::Point { .. } => "a point light",
+            Light::Spot { .. } => "a spot light",
+            Light::Environment(env) if env.from_sky => "a sky (its dome)",
+            Light::Environment(_) => "an environment light",
+            _ if sun => "a sky (its sun)",
+            _ => "a directional light",
+        };
+        let table = if sun { table - 1 } else { table };
+        format!("lights[{table}], {kind}")
     }
 
     /// The names of the media, in the order they were defined.

@@ -636,3 +636,38 @@ fn bad_environment_lights_name_the_key_and_line() {
     img.write_exr(&dir.join("negative.exr")).unwrap();
     expect(&scene("file = \"negative.exr\""), &["lights[1].file", "texel (5, 1)", "non-negative"]);
 }
+
+/// A sky's table: the sun by elevation (and azimuth) or by direction, above the horizon; the
+/// model's turbidity range; an albedo in [0, 1]; one environment per scene, a sky counting as
+/// one.
+#[test]
+fn bad_skies_name_the_key_and_line() {
+    let scene = |light: &str| format!("{CAMERA}{BODY}\n[[lights]]\ntype = \"sky\"\n{light}\n");
+    let sky = load(&scene("elevation = 30\nazimuth = 120\nturbidity = 4")).unwrap();
+    assert_eq!(sky.light_count(), 3, "the point light, the sky dome and its sun");
+    let labels: Vec<String> = (0..3).map(|i| sky.light_label(i)).collect();
+    assert_eq!(
+        labels,
+        ["lights[0], a point light", "lights[1], a sky (its dome)", "lights[1], a sky (its sun)"]
+    );
+    let no_sun = load(&scene("sun_direction = [0, 1, 1]\nsun = false")).unwrap();
+    assert_eq!(no_sun.light_count(), 2);
+    expect_error(&scene(""), &["lights[1].elevation", "needs the sun", ":24"]);
+    expect_error(&scene("elevation = 95"), &["lights[1].elevation", "[0, 90]"]);
+    expect_error(
+        &scene("elevation = 30\nsun_direction = [0, 1, 0]"),
+        &["lights[1].sun_direction", "not both"],
+    );
+    expect_error(&scene("sun_direction = [0, -1, 1]"), &["lights[1].sun_direction", "horizon"]);
+    expect_error(&scene("sun_direction = [0, 0, 0]"), &["lights[1].sun_direction", "horizon"]);
+    expect_error(&scene("elevation = 30\nturbidity = 20"), &["lights[1].turbidity", "[1.7, 10]"]);
+    expect_error(
+        &scene("elevation = 30\nground_albedo = 2"),
+        &["lights[1].ground_albedo", "exceed"],
+    );
+    expect_error(&scene("elevation = 30\nresolution = 4"), &["lights[1].resolution", "[16, 8192]"]);
+    expect_error(&scene("elevation = 30\nscale = -1"), &["lights[1].scale", "negative"]);
+    let two =
+        format!("{}[[lights]]\ntype = \"environment\"\nradiance = 1\n", scene("elevation = 30"));
+    expect_error(&two, &["lights[2].type", "at most one environment"]);
+}

@@ -472,3 +472,90 @@ fn the_noise_figure_is_not_ruled_by_one_pixel() {
         .unwrap_or_else(|| panic!("no noise figure: {err}"));
     assert!(noise > 1.0 && noise < 100.0, "relative noise {noise} %: {err}");
 }
+
+/// `haze sky` writes the daylight model as an OpenEXR map that loads as an environment (the sun
+/// folded into the one texel that holds its direction: the map's brightest), and refuses
+/// impossible parameters with a one-line error naming the flag.
+#[test]
+fn sky_writes_a_map_and_refuses_bad_parameters() {
+    let dir = temp_dir("cli-sky");
+    let out = dir.join("sky.exr");
+    let o = out.to_str().unwrap();
+    let (ok, err) =
+        haze(&["sky", "--elevation", "30", "--azimuth", "85", "--resolution", "64", "-o", o]);
+    assert!(ok, "{err}");
+    assert!(err.contains("64 × 32") && err.contains("in the map"), "{err}");
+    let map = haze::scene::EnvMap::load(&out).unwrap();
+    assert_eq!(map.size(), [64, 32]);
+    // A scene lit by the map alone is lit (and the sun makes it much brighter than without).
+    let scene_text = |file: &str| {
+        format!(
+            "[camera]\ntype = \"perspective\"\nposition = [0, 1, 3]\nlook_at = [0, 0, 0]\nfov = 40\n\
+             resolution = [8, 8]\n[materials.grey]\ntype = \"diffuse\"\nalbedo = 0.5\n\
+             [[shapes]]\ntype = \"rectangle\"\nsize = [4, 4]\nmaterial = \"grey\"\n\
+             transform = {{ rotate = [-90, 0, 0] }}\n[[lights]]\ntype = \"environment\"\nfile = \"{file}\"\n"
+        )
+    };
+    let no_sun = dir.join("no-sun.exr");
+    let (ok, err) = haze(&[
+        "sky",
+        "--elevation",
+        "30",
+        "--resolution",
+        "64",
+        "--no-sun",
+        "-o",
+        no_sun.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let mean = |file: &Path| {
+        let scene =
+            haze::Scene::from_toml(&scene_text(file.to_str().unwrap()), Path::new("s.toml"), &dir)
+                .unwrap();
+        let s = haze::settings::RenderSettings {
+            iterations: Some(4),
+            photons: 2000,
+            integrator: haze::settings::Integrator::Path,
+            ..Default::default()
+        };
+        haze::render(
+            &scene,
+            &s,
+            &mut haze::progress::Silent,
+            &std::sync::atomic::AtomicBool::new(false),
+        )
+        .unwrap()
+        .mean()
+    };
+    let (with, without) = (mean(&out), mean(&no_sun));
+    assert!(without > 0.0 && with > without, "with the sun {with}, without {without}");
+    // The sun at 30° elevation, 85° from +z towards +x: u = 0.264, v = 1/3, texel (16, 10) of
+    // 64 × 32, the brightest of the map, and far brighter than the sky there without the sun.
+    let (sun_map, sky_map) = (map, haze::scene::EnvMap::load(&no_sun).unwrap());
+    let lum = |t: [f32; 3]| t.iter().sum::<f32>();
+    let brightest = (0..32)
+        .flat_map(|y| (0..64).map(move |x| (x, y)))
+        .max_by(|a, b| lum(sun_map.texel(a.0, a.1)).total_cmp(&lum(sun_map.texel(b.0, b.1))))
+        .unwrap();
+    assert_eq!(brightest, (16, 10));
+    assert!(lum(sun_map.texel(16, 10)) > 100.0 * lum(sky_map.texel(16, 10)));
+    for (flag, value, needle) in [
+        ("--elevation", "95", "--elevation must lie in [0, 90]"),
+        ("--turbidity", "0.5", "--turbidity must lie in [1.7, 10]"),
+        ("--ground-albedo", "2", "--ground-albedo must lie in [0, 1]"),
+        ("--resolution", "8", "--resolution must lie in [16, 8192]"),
+        ("--scale", "nan", "--scale must be a positive number"),
+    ] {
+        let mut args = vec!["sky", "--elevation", "30", "-o", o];
+        if flag == "--elevation" {
+            args[2] = value;
+        } else {
+            args.extend([flag, value]);
+        }
+        let (ok, err) = haze(&args);
+        assert!(!ok && err.contains(needle) && err.lines().count() == 1, "{flag} {value}: {err}");
+    }
+    let (ok, err) =
+        haze(&["sky", "--elevation", "30", "-o", dir.join("sky.png").to_str().unwrap()]);
+    assert!(!ok && err.contains("name it .exr"), "{err}");
+}

@@ -28,7 +28,7 @@ use haze::settings::{Integrator, RenderSettings};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-const PATH_TRACED: [&str; 14] = [
+const PATH_TRACED: [&str; 16] = [
     "campfire",
     "coloured-smoke",
     "cornell-box",
@@ -36,10 +36,12 @@ const PATH_TRACED: [&str; 14] = [
     "cornell-cloud",
     "cornell-fog",
     "cumulus",
+    "cumulus-sky",
     "fire",
     "fog-backward",
     "fog-forward",
     "spotlight-fog",
+    "sunset-fog",
     "thin-fog",
     "vdb-cloud",
     "vdb-edges",

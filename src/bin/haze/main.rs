@@ -10,6 +10,7 @@ mod render;
 mod scaling;
 mod shared;
 mod signals;
+mod sky;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -45,6 +46,9 @@ enum Command {
     /// with every method and report agreement with the analytic references; exits 1 if a case
     /// fails.
     Validate(lab::ValidateArgs),
+    /// Write a daylight sky (Preetham et al. 1999, the scene format's `type = "sky"`) as an
+    /// OpenEXR environment map, with the sun in it.
+    Sky(sky::SkyArgs),
 }
 
 /// The command line with `--iterations A..B` (or `-n A..B`, `-nA..B`, `--iterations=A..B`) rewritten as
@@ -91,6 +95,7 @@ fn run() -> Result<ExitCode> {
         Command::Bench(a) => bench::run(a).map(|()| ExitCode::SUCCESS),
         Command::Validate(a) => lab::validate(a),
         Command::Converge(a) => lab::converge(a),
+        Command::Sky(a) => sky::run(a),
     }
 }
 

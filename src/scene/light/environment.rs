@@ -118,6 +118,56 @@ impl EnvMap {
             .map_err(|message| Error::Image { path: path.to_path_buf(), message })
     }
 
+    /// The daylight sky of `params` (`sky.rs`: Preetham et al.'s dome over a Lambertian ground)
+    /// as a map `width` texels wide and half as high, and the sun's irradiance on a plane facing
+    /// it. With `sun_in_map` the sun is also folded into the map — its irradiance spread over
+    /// the solid angle of the texel it lies in, as in an HDR photograph whose solar disc is
+    /// smaller than a texel — so that the map alone lights a scene; else it is left to a
+    /// directional light. `width` is clamped to [16, 8192].
+    pub fn sky(params: &super::sky::SkyParams, width: u32, sun_in_map: bool) -> (Self, Rgb) {
+        let width = width.clamp(16, 8192) & !1;
+        let (mut texels, w, h, sun) = super::sky::render(params, width);
+        if sun_in_map && params.sun.y >= 0.0 {
+            let uv = uv_of(params.sun.normalize());
+            let x = ((uv.x * w as f32) as u32).min(w - 1);
+            let y = ((uv.y * h as f32) as u32).min(h - 1);
+            let (v0, v1) = (y as f32 / h as f32, (y + 1) as f32 / h as f32);
+            let solid = 2.0 * PI / w as f32 * ((PI * v0).cos() - (PI * v1).cos());
+            let t = &mut texels[(y * w + x) as usize];
+            *t = (Rgb::from(*t) + sun / solid).to_array();
+        }
+        let map = Self::new(w, h, texels).expect("a rendered sky is a valid map");
+        (map, sun)
+    }
+
+    /// The map with every texel multiplied by `s`.
+    pub fn scaled(self, s: f32) -> Self {
+        let texels = self.texels.iter().map(|t| (*t * s).to_array()).collect();
+        Self::new(self.width, self.height, texels).expect("a scaled map stays valid")
+    }
+
+    /// Writes the map as a one-layer RGB OpenEXR file (ZIP-compressed), atomically.
+    pub fn write_exr(&self, path: &Path) -> Result<()> {
+        use exr::prelude::*;
+        let w = self.width as usize;
+        let channels = SpecificChannels::rgb(|p: exr::math::Vec2<usize>| {
+            let t = self.texels[p.y() * w + p.x()];
+            (t.x, t.y, t.z)
+        });
+        let size = (w, self.height as usize);
+        let layer =
+            Layer::new(size, LayerAttributes::named("sky"), Encoding::SMALL_LOSSLESS, channels);
+        let image = Image::from_layer(layer);
+        crate::atomic::write_atomically(path, |out| {
+            image.write().to_buffered(out).map_err(|e| e.to_string())
+        })
+    }
+
+    /// The radiance of the texel at column `x`, row `y` (row 0 at the zenith).
+    pub fn texel(&self, x: u32, y: u32) -> [f32; 3] {
+        self.at(x.min(self.width - 1), y.min(self.height - 1)).to_array()
+    }
+
     /// Width and height in texels.
     pub fn size(&self) -> [u32; 2] {
         [self.width, self.height]
@@ -148,7 +198,7 @@ fn uv_of(w: Vec3) -> Vec2 {
 }
 
 /// The local direction of texture coordinates `uv`.
-fn direction_of(uv: Vec2) -> Vec3 {
+pub(crate) fn direction_of(uv: Vec2) -> Vec3 {
     let (sin_t, cos_t) = (PI * uv.y).sin_cos();
     let (sin_p, cos_p) = (2.0 * PI * uv.x).sin_cos();
     Vec3::new(sin_t * sin_p, cos_t, -sin_t * cos_p)
@@ -259,6 +309,8 @@ pub struct Environment {
     integral: Rgb,
     /// Whether camera rays that leave the scene see it.
     pub visible: bool,
+    /// Made by a `sky` table (which also makes its sun, the directional light after it).
+    pub(crate) from_sky: bool,
     /// The scene's bounding sphere, for photon emission.
     centre: Vec3,
     radius: f32,
@@ -289,6 +341,7 @@ impl Environment {
             distribution,
             integral,
             visible,
+            from_sky: false,
             centre,
             radius,
             importance: EnvImportance { table: Vec::new(), fluence: 0.0, floor: 0.0 },

@@ -28,10 +28,12 @@
 pub(crate) mod environment;
 pub(crate) mod media;
 mod sampler;
+pub(crate) mod sky;
 mod tree;
 
 pub use environment::{EnvMap, Environment};
 pub(crate) use sampler::LightSampler;
+pub use sky::SkyParams;
 pub(crate) use tree::{Receiver, Segment};
 
 use crate::math::{

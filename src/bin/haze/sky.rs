@@ -1,0 +1,86 @@
+//! `haze sky`: a daylight sky (the scene format's `type = "sky"`) written as an OpenEXR
+//! environment map, with the sun folded into its texel, for scenes and other renderers.
+
+use crate::shared::check_output_dir;
+use anyhow::{Result, bail};
+use clap::Args;
+use haze::scene::{EnvMap, SkyParams};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Args)]
+pub(crate) struct SkyArgs {
+    /// The sun's elevation above the horizon, degrees (0 to 90).
+    #[arg(long, value_name = "DEG")]
+    elevation: f32,
+    /// The sun's azimuth, degrees from +z towards +x.
+    #[arg(long, default_value_t = 0.0, value_name = "DEG")]
+    azimuth: f32,
+    /// Atmospheric turbidity, 1.7 to 10 (2 very clear, 3 clear, 6 hazy).
+    #[arg(long, default_value_t = 3.0, value_name = "T")]
+    turbidity: f32,
+    /// Albedo of the ground below the horizon, 0 to 1.
+    #[arg(long, default_value_t = 0.3, value_name = "A")]
+    ground_albedo: f32,
+    /// Width of the map in texels (its height is half), 16 to 8192.
+    #[arg(long, default_value_t = 1024, value_name = "W")]
+    resolution: u32,
+    /// Multiplies the whole map (sky radiance is in photometric W/(m²·sr): ~10 at a clear
+    /// zenith).
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    scale: f32,
+    /// Leave the sun out of the map (for a scene that adds it as a directional light).
+    #[arg(long)]
+    no_sun: bool,
+    /// Output file (.exr).
+    #[arg(short = 'o', long, value_name = "FILE.exr")]
+    output: PathBuf,
+}
+
+pub(crate) fn run(args: SkyArgs) -> Result<ExitCode> {
+    if args.output.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!(
+            "--output {}: an environment map is an OpenEXR file: name it .exr",
+            args.output.display()
+        );
+    }
+    if !(0.0..=90.0).contains(&args.elevation) {
+        bail!(
+            "--elevation must lie in [0, 90] degrees (the sun above the horizon), got {}",
+            args.elevation
+        );
+    }
+    if !(1.7..=10.0).contains(&args.turbidity) {
+        bail!("--turbidity must lie in [1.7, 10] (the model's range), got {}", args.turbidity);
+    }
+    if !(0.0..=1.0).contains(&args.ground_albedo) {
+        bail!("--ground-albedo must lie in [0, 1], got {}", args.ground_albedo);
+    }
+    if !(16..=8192).contains(&args.resolution) {
+        bail!("--resolution must lie in [16, 8192], got {}", args.resolution);
+    }
+    if !(args.scale.is_finite() && args.scale > 0.0) {
+        bail!("--scale must be a positive number, got {}", args.scale);
+    }
+    check_output_dir("--output", &args.output)?;
+    let (e, a) = (args.elevation.to_radians(), args.azimuth.to_radians());
+    let params = SkyParams {
+        sun: haze::glam::Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos()),
+        turbidity: args.turbidity,
+        ground_albedo: haze::glam::Vec3::splat(args.ground_albedo),
+    };
+    let (map, sun) = EnvMap::sky(&params, args.resolution, !args.no_sun);
+    let map = map.scaled(args.scale);
+    map.write_exr(&args.output)?;
+    let [w, h] = map.size();
+    eprintln!(
+        "wrote {} ({w} × {h}): sun at {:.1}° elevation, {:.1}° azimuth, turbidity {}, irradiance {:.3} (photometric W/m², scaled){}",
+        args.output.display(),
+        args.elevation,
+        args.azimuth,
+        args.turbidity,
+        sun.element_sum() / 3.0 * args.scale,
+        if args.no_sun { ", left out of the map" } else { ", in the map" }
+    );
+    Ok(ExitCode::SUCCESS)
+}
