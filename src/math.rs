@@ -159,6 +159,26 @@ pub fn sample_concentric_disc(u: Vec2) -> Vec2 {
     r * Vec2::new(theta.cos(), theta.sin())
 }
 
+/// Texture coordinates (u, v) ∈ [0, 1]² of the unit direction `w` on a latitude–longitude map in
+/// Mitsuba 3's `envmap` convention: v = θ / π from +y, u = φ / 2π with
+/// w = (sin θ sin φ, cos θ, −sin θ cos φ) (`scene/light/environment.rs`).
+pub fn latlong_uv(w: Vec3) -> Vec2 {
+    let mut u = w.x.atan2(-w.z) / (2.0 * PI);
+    if u < 0.0 {
+        u += 1.0;
+    }
+    // atan2 rather than acos: exact to the ulp near the poles.
+    let sin_t = (w.x * w.x + w.z * w.z).sqrt();
+    Vec2::new(u.min(1.0), sin_t.atan2(w.y) / PI)
+}
+
+/// The unit direction of texture coordinates `uv` on a latitude–longitude map ([`latlong_uv`]).
+pub fn latlong_direction(uv: Vec2) -> Vec3 {
+    let (sin_t, cos_t) = (PI * uv.y).sin_cos();
+    let (sin_p, cos_p) = (2.0 * PI * uv.x).sin_cos();
+    Vec3::new(sin_t * sin_p, cos_t, -sin_t * cos_p)
+}
+
 /// Uniform direction on the unit sphere; pdf = 1 / 4π.
 #[inline]
 pub fn sample_uniform_sphere(u: Vec2) -> Vec3 {

@@ -249,6 +249,62 @@ def up_for(position, look_at):
     return [0, 1, 0] if abs(v[1]) < 0.99 * np.linalg.norm(v) else [1, 0, 0]
 
 
+def vec3(v):
+    return [float(v)] * 3 if isinstance(v, (int, float)) else [float(x) for x in v]
+
+
+def sky_lights(mi, light, tmp):
+    """A haze `sky` as Mitsuba sees it: the dome written by `haze sky --no-sun` (the same model,
+    the same map) as an `envmap`, and the sun as a `directional` emitter of the irradiance haze
+    reports."""
+    haze = os.environ.get("HAZE", os.path.join(ROOT, "target", "release", "haze"))
+    out = os.path.join(tmp, "sky.exr")
+    if "sun_direction" in light:
+        v = np.array(light["sun_direction"], float)
+        v /= np.linalg.norm(v)
+        elevation, azimuth = math.degrees(math.asin(v[1])), math.degrees(math.atan2(v[0], v[2]))
+    else:
+        elevation, azimuth = light["elevation"], light.get("azimuth", 0.0)
+    scale = light.get("scale", 1.0)
+    if not isinstance(scale, (int, float)):
+        raise SystemExit("a sky's colour scale is not ported (Mitsuba's envmap scale is a number)")
+    albedo = light.get("ground_albedo", 0.3)
+    if not isinstance(albedo, (int, float)):
+        raise SystemExit("a sky's coloured ground albedo is not ported")
+    run = subprocess.run([haze, "sky", "--elevation", str(elevation), "--azimuth", str(azimuth),
+                          "--turbidity", str(light.get("turbidity", 3.0)), "--ground-albedo", str(albedo),
+                          "--resolution", str(light.get("resolution", 512)), "--scale", str(scale),
+                          "--no-sun", "-o", out], check=True, capture_output=True, text=True)
+    sun = [float(x) for x in re.search(r"sun irradiance \[([^]]*)\]", run.stderr).group(1).split(",")]
+    e, a = math.radians(elevation), math.radians(azimuth)
+    towards = [math.cos(e) * math.sin(a), math.sin(e), math.cos(e) * math.cos(a)]
+    lights = [{"type": "envmap", "filename": out}]
+    if light.get("sun", True) and max(sun) > 0:
+        lights.append({"type": "directional", "direction": [-c for c in towards], "irradiance": rgb(sun)})
+    return lights
+
+
+def light_dicts(mi, light, media, scene_dir, tmp):
+    """The Mitsuba emitters of one `[[lights]]` table (a sky is two)."""
+    kind = light["type"]
+    if kind == "sky":
+        return sky_lights(mi, light, tmp)
+    if kind == "environment":
+        # Mitsuba's envmap shares haze's latitude-longitude convention (docs/scene-format.md);
+        # it interpolates texels bilinearly where haze keeps each constant.
+        if "file" in light:
+            scale = light.get("scale", 1.0)
+            if not isinstance(scale, (int, float)):
+                raise SystemExit("an environment's colour scale is not ported (Mitsuba's is a number)")
+            d = {"type": "envmap", "filename": os.path.join(scene_dir, light["file"]), "scale": scale,
+                 "to_world": rotation(mi, light.get("rotate", [0, 0, 0]))}
+        else:
+            radiance = np.multiply(vec3(light["radiance"]), vec3(light.get("scale", 1.0)))
+            d = {"type": "constant", "radiance": rgb(radiance.tolist())}
+        return [d]
+    return [light_dict(mi, light, media)]
+
+
 def light_dict(mi, light, media):
     kind = light["type"]
     power = light["power"] if "power" in light else None
@@ -301,7 +357,10 @@ def mitsuba_scene(mi, path, res, max_bounces, tmp, fit_containers=True):
                 part = fit_container(mi, part, media[sh["interior"]])
             d[f"shape{i}_{k}"] = part
     for i, light in enumerate(s.get("lights", [])):
-        d[f"light{i}"] = light_dict(mi, light, media)
+        for k, e in enumerate(light_dicts(mi, light, media, scene_dir, tmp)):
+            d[f"light{i}_{k}"] = e
+        if light["type"] in ("environment", "sky") and not light.get("visible", True):
+            d["integrator"]["hide_emitters"] = True
     return d
 
 

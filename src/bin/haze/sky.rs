@@ -74,12 +74,14 @@ pub(crate) fn run(args: SkyArgs) -> Result<ExitCode> {
     map.write_exr(&args.output)?;
     let [w, h] = map.size();
     eprintln!(
-        "wrote {} ({w} × {h}): sun at {:.1}° elevation, {:.1}° azimuth, turbidity {}, irradiance {:.3} (photometric W/m², scaled){}",
+        "wrote {} ({w} × {h}): sun at {:.1}° elevation, {:.1}° azimuth, turbidity {}, sun irradiance [{:.6}, {:.6}, {:.6}] (photometric W/m², scaled){}",
         args.output.display(),
         args.elevation,
         args.azimuth,
         args.turbidity,
-        sun.element_sum() / 3.0 * args.scale,
+        sun.x * args.scale,
+        sun.y * args.scale,
+        sun.z * args.scale,
         if args.no_sun { ", left out of the map" } else { ", in the map" }
     );
     Ok(ExitCode::SUCCESS)

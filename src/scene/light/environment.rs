@@ -33,7 +33,10 @@
 //! coarse normals would say zero.
 
 use crate::error::{Error, Result};
-use crate::math::{Frame, Rgb, luminance, sample_concentric_disc, sample_uniform_sphere};
+use crate::math::{
+    Frame, Rgb, latlong_direction as direction_of, latlong_uv as uv_of, luminance,
+    sample_concentric_disc, sample_uniform_sphere,
+};
 use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
 use std::path::Path;
@@ -184,24 +187,6 @@ impl EnvMap {
         let y = ((uv.y * self.height as f32) as u32).min(self.height - 1);
         (x, y)
     }
-}
-
-/// Texture coordinates of a local direction (module docs).
-fn uv_of(w: Vec3) -> Vec2 {
-    let mut u = w.x.atan2(-w.z) / (2.0 * PI);
-    if u < 0.0 {
-        u += 1.0;
-    }
-    // atan2 rather than acos: exact to the ulp near the poles.
-    let sin_t = (w.x * w.x + w.z * w.z).sqrt();
-    Vec2::new(u.min(1.0), sin_t.atan2(w.y) / PI)
-}
-
-/// The local direction of texture coordinates `uv`.
-pub(crate) fn direction_of(uv: Vec2) -> Vec3 {
-    let (sin_t, cos_t) = (PI * uv.y).sin_cos();
-    let (sin_p, cos_p) = (2.0 * PI * uv.x).sin_cos();
-    Vec3::new(sin_t * sin_p, cos_t, -sin_t * cos_p)
 }
 
 /// A piecewise-constant density over [0, 1]² on a grid of cells: rows by their sums, then a

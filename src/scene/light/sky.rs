@@ -188,7 +188,7 @@ pub(crate) fn render(p: &SkyParams, width: u32) -> (Vec<[f32; 3]>, u32, u32, Rgb
             for k in 0..4 {
                 let u = (x as f32 + 0.25 + 0.5 * (k % 2) as f32) / w as f32;
                 let v = (y as f32 + 0.25 + 0.5 * (k / 2) as f32) / h as f32;
-                l += dome.radiance(super::environment::direction_of(glam::Vec2::new(u, v))) * 0.25;
+                l += dome.radiance(crate::math::latlong_direction(glam::Vec2::new(u, v))) * 0.25;
             }
             texels[(y * w + x) as usize] = l.to_array();
             let cos_c = (PI * (y as f64 + 0.5) / h as f64).cos();
