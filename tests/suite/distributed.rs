@@ -71,6 +71,15 @@ fn ranges_merge_and_resume_exactly_in_a_vdb_cloud() {
     check_exact("cornell-cloud.toml", &settings(Integrator::Combined, VolumeEstimate::Beam));
 }
 
+/// Under environment lights (a map file with the sun in a texel, and a physical sky with its
+/// sun): guided photons from the environment's disc, the hybrid and the path tracer.
+#[test]
+fn ranges_merge_and_resume_exactly_under_a_sky() {
+    check_exact("sunset-fog.toml", &settings(Integrator::Hybrid, VolumeEstimate::Beam));
+    check_exact("sunset-fog.toml", &settings(Integrator::Path, VolumeEstimate::Beam));
+    check_exact("cumulus-sky.toml", &settings(Integrator::Combined, VolumeEstimate::Beam));
+}
+
 /// The original PPM's per-pixel statistics depend on every earlier iteration: ranges are
 /// refused with a clear message, merging too, but a stopped render resumes exactly.
 #[test]

@@ -193,3 +193,34 @@ fn a_map_lit_scene_agrees_across_integrators() {
     }
     assert!(same > 0 && darker > 0, "{same} pixels unchanged, {darker} darker");
 }
+
+/// A scene's fingerprint (what partial renders must share to merge or resume) covers the map's
+/// contents, its rotation and visibility, and a sky's parameters: one texel or one degree changes
+/// it; the same description gives the same fingerprint.
+#[test]
+fn the_fingerprint_covers_the_sky() {
+    let scene = |light: LightDesc| {
+        let camera = CameraDesc::perspective([0.0, 1.0, 3.0], Vec3::ZERO, 40.0).resolution(4, 4);
+        let mut b = SceneBuilder::new(camera);
+        b.material("grey", Material::diffuse(0.5)).unwrap();
+        b.shape(ShapeDesc::rectangle(2.0, 2.0).material("grey").rotate([-90.0, 0.0, 0.0])).unwrap();
+        b.light(light).unwrap();
+        b.build().unwrap().fingerprint()
+    };
+    let map = |bump: f32| {
+        let mut t = vec![[0.3f32, 0.4, 0.5]; 32];
+        t[9][1] += bump;
+        EnvMap::new(8, 4, t).unwrap()
+    };
+    let base = scene(LightDesc::environment_map(map(0.0)));
+    assert_eq!(base, scene(LightDesc::environment_map(map(0.0))));
+    assert_ne!(base, scene(LightDesc::environment_map(map(1e-3))), "a texel");
+    assert_ne!(base, scene(LightDesc::environment_map(map(0.0)).rotate([0.0, 1.0, 0.0])), "rotate");
+    assert_ne!(base, scene(LightDesc::environment_map(map(0.0)).visible(false)), "visible");
+    assert_ne!(base, scene(LightDesc::environment_map(map(0.0)).scale(2.0)), "scale");
+    let sky = scene(LightDesc::sky(30.0, 40.0));
+    assert_eq!(sky, scene(LightDesc::sky(30.0, 40.0)));
+    assert_ne!(sky, scene(LightDesc::sky(31.0, 40.0)), "elevation");
+    assert_ne!(sky, scene(LightDesc::sky(30.0, 40.0).turbidity(4.0)), "turbidity");
+    assert_ne!(sky, scene(LightDesc::sky(30.0, 40.0).with_sun(false)), "the sun");
+}
