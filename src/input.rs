@@ -49,16 +49,30 @@ fn refusal(path: &Path, message: String) -> Error {
     }
 }
 
-/// Reads the first RGB layer of the OpenEXR file at `path` (`what` names it in messages): width,
-/// height and texels, row-major from the top ([`rgb_exr_from_bytes`]). The file is refused if it
-/// is larger than 16 bytes a texel of `max_texels` (uncompressed float RGBA) and 1 MiB of header.
-pub(crate) fn read_rgb_exr(
-    path: &Path,
-    max_texels: u64,
+/// Why an OpenEXR file whose header is `meta` is refused for its size, if it is: its layers'
+/// pixels summed exceed `max_pixels` (`what` names the file's kind). Checked before any pixel is
+/// read, since the exr crate allocates every layer from the declared data windows first.
+pub(crate) fn exr_size_refusal(
+    meta: &exr::meta::MetaData,
+    max_pixels: u64,
     what: &str,
-) -> Result<(u32, u32, Vec<[f32; 3]>)> {
-    let bytes = read_bounded(path, 16 * max_texels + (1 << 20), what)?;
-    rgb_exr_from_bytes(&bytes, path, max_texels, what)
+) -> Option<String> {
+    let mut total = 0u64;
+    for header in meta.headers.iter() {
+        let size = header.layer_size;
+        let pixels = (size.width() as u64).saturating_mul(size.height() as u64);
+        total = total.saturating_add(pixels);
+        if total > max_pixels {
+            return Some(format!(
+                "its header declares a {} × {} image{}, more than haze reads as {what} \
+                 ({max_pixels} pixels)",
+                size.width(),
+                size.height(),
+                if meta.headers.len() > 1 { " among its layers" } else { "" },
+            ));
+        }
+    }
+    None
 }
 
 /// The first RGB layer of an OpenEXR file's `bytes` (`path` names it in errors). The header is
@@ -78,15 +92,8 @@ pub(crate) fn rgb_exr_from_bytes(
         std::panic::catch_unwind(|| exr::meta::MetaData::read_from_buffered(cursor(), false))
             .map_err(|_| err("cannot read as an OpenEXR image: its header is corrupt".into()))?
             .map_err(|e| err(format!("cannot read as an OpenEXR image: {e}")))?;
-    let mut total = 0u64;
-    for header in meta.headers.iter() {
-        let size = header.layer_size;
-        total = total.saturating_add((size.width() as u64).saturating_mul(size.height() as u64));
-    }
-    if total > max_texels {
-        return Err(err(format!(
-            "its header declares {total} pixels, more than haze reads as {what} ({max_texels})"
-        )));
+    if let Some(refusal) = exr_size_refusal(&meta, max_texels, what) {
+        return Err(err(refusal));
     }
     let image = std::panic::catch_unwind(|| {
         read()

@@ -18,7 +18,7 @@
 
 use super::frame::{Frame, StepTimes};
 use super::path::roulette;
-use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
+use super::walk::{EyePath, EyeVisitor, Next, environment_seen, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::Estimate;
 use crate::estimate::mis::weight;
@@ -643,13 +643,6 @@ impl CombinedEye<'_> {
     }
 }
 
-/// The environment's radiance along the path's ray, if the scene has one and the path may see
-/// it (the walker's rule: not on a camera ray where it is hidden).
-fn sky(path: &EyePath) -> Option<Rgb> {
-    let (_, env) = path.scene.environment()?;
-    (path.depth > 0 || env.visible).then(|| env.radiance(path.ray.d))
-}
-
 /// Merges that can weigh at least this much are always gathered; below, by Russian roulette
 /// ([`CombinedEye::gather_chance`]).
 const MERGE_ROULETTE: f32 = 0.1;
@@ -672,7 +665,7 @@ impl EyeVisitor for CombinedEye<'_> {
         // expected value over that choice.
         let reached = match end {
             Some(hit) => path.scene.le(hit, -d).map(|le| self.emission_weighted(path, hit, le)),
-            None => sky(path).map(|le| self.environment_weighted(path, le)),
+            None => environment_seen(path).map(|le| self.environment_weighted(path, le)),
         };
         if let Some(l) = reached {
             let l = path.beta * tr.at(t_max) * l;

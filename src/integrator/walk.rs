@@ -202,14 +202,11 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
         }
     }
 
-    /// The environment counts, but on a camera ray (no event yet) where it is hidden.
-    fn escaped(&mut self, scene: &Scene) {
-        let Some((_, env)) = scene.environment() else { return };
-        if self.path.depth == 0 && !env.visible {
-            return;
+    /// The environment counts ([`environment_seen`]).
+    fn escaped(&mut self, _scene: &Scene) {
+        if let Some(le) = environment_seen(self.path) {
+            self.path.l += self.visitor.environment(self.path, le);
         }
-        let le = env.radiance(self.path.ray.d);
-        self.path.l += self.visitor.environment(self.path, le);
     }
 
     /// A diffuse surface goes to the visitor, a specular one turns the path; a spent path ends.
@@ -239,6 +236,13 @@ impl<V: EyeVisitor> Traveller for Walking<'_, '_, V> {
         self.visitor.after_specular(path, hit, wo);
         Vertex::Scattered
     }
+}
+
+/// The environment's radiance along the path's ray, if the scene has an environment light and
+/// the path may see it: not on a camera ray (no event yet) where it is hidden.
+pub(crate) fn environment_seen(path: &EyePath) -> Option<Rgb> {
+    let (_, env) = path.scene.environment()?;
+    (path.depth > 0 || env.visible).then(|| env.radiance(path.ray.d))
 }
 
 /// Adds the emitter a path that has used up its events reaches, if any (a spent [`Walking`]).

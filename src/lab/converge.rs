@@ -94,7 +94,12 @@ impl Reference {
         // it reads a pixel, so a small file declaring a vast image would abort the process.
         let meta = exr::meta::MetaData::read_from_file(path, false)
             .map_err(|e| err(format!("cannot read as an RGB OpenEXR reference: {e}")))?;
-        check_declared_size(&meta, path)?;
+        // Every layer is allocated before any is read: at most 4 layers of the largest image
+        // haze renders, together.
+        let max = 4 * crate::scene::camera::MAX_PIXELS;
+        if let Some(refusal) = crate::input::exr_size_refusal(&meta, max, "a reference") {
+            return Err(err(refusal));
+        }
         let image = read()
             .no_deep_data()
             .largest_resolution_level()
@@ -151,30 +156,6 @@ impl Reference {
             made_by,
         })
     }
-}
-
-/// The image sizes an OpenEXR header declares, refused beyond 4 layers of the largest image
-/// haze renders: the reader allocates every layer before it reads a pixel.
-fn check_declared_size(meta: &exr::meta::MetaData, path: &Path) -> Result<()> {
-    let err = |m: String| crate::Error::Output { path: path.to_path_buf(), message: m };
-    // Every layer is allocated before any is read: their sizes are bounded together.
-    let mut total = 0u64;
-    for header in meta.headers.iter() {
-        let size = header.layer_size;
-        let pixels = (size.width() as u64).saturating_mul(size.height() as u64);
-        total = total.saturating_add(pixels);
-        if total > 4 * crate::scene::camera::MAX_PIXELS {
-            return Err(err(format!(
-                "its header declares a {} × {} image{}, more than haze reads (4 layers of \
-                 {} pixels)",
-                size.width(),
-                size.height(),
-                if meta.headers.len() > 1 { " among its layers" } else { "" },
-                crate::scene::camera::MAX_PIXELS
-            )));
-        }
-    }
-    Ok(())
 }
 
 /// Refuses a reference whose pixels or variances are negative or not finite, naming the first.

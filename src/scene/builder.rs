@@ -219,28 +219,14 @@ fn check_sky(
     key: impl Fn(&str) -> String,
 ) -> Result<()> {
     check_point(key("sun_direction"), p.sun)?;
-    if !(p.sun.length_squared() > 0.0 && p.sun.y >= 0.0) {
-        return Err(invalid(
-            key("sun_direction"),
-            format!(
-                "the sun must be at or above the horizon (elevation 0 to 90 degrees), got {}",
-                p.sun
-            ),
-        ));
-    }
-    let (lo, hi) = light::sky::TURBIDITY;
-    if !(p.turbidity >= lo && p.turbidity <= hi) {
-        return Err(invalid(
-            key("turbidity"),
-            format!("must lie in [{lo}, {hi}] (the model's range), got {}", p.turbidity),
-        ));
-    }
     check_color(key("ground_albedo"), p.ground_albedo, Some(1.0))?;
     check_color(key("scale"), scale, None)?;
-    if !(16..=8192).contains(&resolution) {
+    p.check().map_err(|(field, m)| invalid(key(field), m))?;
+    let widths = light::sky::WIDTHS;
+    if !widths.contains(&resolution) {
         return Err(invalid(
             key("resolution"),
-            format!("must lie in [16, 8192], got {resolution}"),
+            format!("must lie in [{}, {}], got {resolution}", widths.start(), widths.end()),
         ));
     }
     Ok(())
@@ -674,12 +660,7 @@ impl SceneBuilder {
             .collect();
         let emitters = bvh(&emitting, "emitters")?;
         let (lo, hi) = self.bounds(&prims);
-        for (l, medium) in &self.lights {
-            for light in table_lights(l, (lo, hi)) {
-                light_media.push(*medium);
-                lights.push(light);
-            }
-        }
+        let light_labels = self.add_table_lights((lo, hi), &mut lights, &mut light_media)?;
         let materials: Vec<Material> = self.materials.into_iter().map(|(_, m)| m).collect();
         let shapes: Vec<Shape> = self.shapes.into_iter().map(|(s, _)| s).collect();
         let passthrough =
@@ -700,6 +681,7 @@ impl SceneBuilder {
             area_light,
             environment,
             lights,
+            light_labels,
             light_media,
             medium_names: self.media.iter().map(|(n, _)| n.clone()).collect(),
             media: self.media.into_iter().map(|(_, m)| m).collect(),
@@ -718,6 +700,33 @@ impl SceneBuilder {
         let mut scene = scene;
         scene.emissive_media = super::light::media::EmissiveMedia::new(&scene);
         Ok(scene)
+    }
+
+    /// Appends the lights of the `[[lights]]` tables (for a scene of bounds `bounds`) to the area
+    /// lights in `lights`, and their media to `media`; returns every light's label, e.g.
+    /// `shapes[7], an area light` or `lights[1], a sky (its sun)`.
+    fn add_table_lights(
+        &self,
+        bounds: (Vec3, Vec3),
+        lights: &mut Vec<Light>,
+        media: &mut Vec<Option<u32>>,
+    ) -> Result<Vec<String>> {
+        let area = |l: &Light| match l {
+            Light::Area { shape, .. } => {
+                format!("{}, an area light", self.shapes[*shape as usize].0.label)
+            }
+            _ => String::new(),
+        };
+        let mut labels: Vec<String> = lights.iter().map(area).collect();
+        for (k, (l, medium)) in self.lights.iter().enumerate() {
+            let made = table_lights(l, bounds).map_err(|m| invalid(format!("lights[{k}]"), m))?;
+            for (light, kind) in made {
+                media.push(*medium);
+                lights.push(light);
+                labels.push(format!("lights[{k}], {kind}"));
+            }
+        }
+        Ok(labels)
     }
 
     /// The BVH's primitives (degenerate triangles dropped), and an area light for every emitting
@@ -802,58 +811,54 @@ fn emitter(geometry: &Geometry, label: &str) -> Result<Emitter> {
     })
 }
 
-/// A described point, spot or directional light, for a scene of bounds `bounds` (a directional
-/// light covers them).
-fn delta_light(l: &LightKind, bounds: (Vec3, Vec3)) -> Light {
-    match *l {
+/// The lights a described `[[lights]]` table makes in a scene of bounds `bounds`, each with what
+/// it is for its label: one light, or for a sky the dome (an environment light) and its sun (a
+/// directional light, unless left out or below the horizon). A directional light's photons
+/// cover the bounds; an environment's leave a disc around them.
+fn table_lights(
+    l: &LightKind,
+    bounds: (Vec3, Vec3),
+) -> std::result::Result<Vec<(Light, &'static str)>, String> {
+    let one = match *l {
         LightKind::Point { position, power } => {
-            Light::Point { position, intensity: power / (4.0 * std::f32::consts::PI) }
+            let intensity = power / (4.0 * std::f32::consts::PI);
+            (Light::Point { position, intensity }, "a point light")
         }
         LightKind::Spot { position, look_at, power, cone_angle, falloff_start } => {
             let cos_max = cone_angle.to_radians().cos();
             let cos_start = falloff_start.unwrap_or(cone_angle).to_radians().cos();
             let omega = light::spot_solid_angle(cos_max, cos_start);
-            Light::Spot {
+            let spot = Light::Spot {
                 position,
                 frame: crate::math::Frame::new((look_at - position).normalize()),
                 intensity: power / omega,
                 cos_max,
                 cos_start,
-            }
+            };
+            (spot, "a spot light")
         }
         LightKind::Directional { direction, irradiance } => {
-            Light::directional(direction.normalize(), irradiance, bounds)
+            (Light::directional(direction.normalize(), irradiance, bounds), "a directional light")
         }
         LightKind::Environment { radiance, ref map, rotate, visible } => {
             let turn = glam::Mat3::from(shape::affine(Vec3::ONE, rotate, Vec3::ZERO).matrix3);
             let env = light::Environment::new(map.clone(), radiance, turn, visible, bounds);
-            Light::Environment(Box::new(env))
+            (Light::Environment(Box::new(env)), "an environment light")
         }
-        LightKind::Sky { .. } => unreachable!("a sky is two lights (table_lights)"),
-    }
-}
-
-/// The lights a `[[lights]]` table makes: one, or for a sky the sky dome (an environment light)
-/// and its sun (a directional light, unless left out or below the horizon).
-fn table_lights(l: &LightKind, bounds: (Vec3, Vec3)) -> Vec<Light> {
-    let LightKind::Sky { params, scale, resolution, sun, visible } = *l else {
-        return vec![delta_light(l, bounds)];
+        LightKind::Sky { params, scale, resolution, sun, visible } => {
+            let (map, irradiance) = light::EnvMap::sky(&params, resolution, false)?;
+            let map = Some(std::sync::Arc::new(map));
+            let dome = light::Environment::new(map, scale, glam::Mat3::IDENTITY, visible, bounds);
+            let mut lights = vec![(Light::Environment(Box::new(dome)), "a sky (its dome)")];
+            let irradiance = irradiance * scale;
+            if sun && irradiance.max_element() > 0.0 {
+                let sun = Light::directional(-params.sun.normalize(), irradiance, bounds);
+                lights.push((sun, "a sky (its sun)"));
+            }
+            return Ok(lights);
+        }
     };
-    let (map, irradiance) = light::EnvMap::sky(&params, resolution, false);
-    let mut dome = light::Environment::new(
-        Some(std::sync::Arc::new(map)),
-        scale,
-        glam::Mat3::IDENTITY,
-        visible,
-        bounds,
-    );
-    dome.from_sky = true;
-    let mut lights = vec![Light::Environment(Box::new(dome))];
-    let irradiance = irradiance * scale;
-    if sun && irradiance.max_element() > 0.0 {
-        lights.push(Light::directional(-params.sun.normalize(), irradiance, bounds));
-    }
-    lights
+    Ok(vec![one])
 }
 
 /// The geometry a description asks for, transformed into the scene.

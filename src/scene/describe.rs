@@ -714,8 +714,13 @@ impl LightDesc {
     /// degrees from +z towards +x; turbidity 3, ground albedo 0.3, a 512 × 256 map, the sun
     /// included.
     pub fn sky(elevation: f32, azimuth: f32) -> Self {
-        let (e, a) = (elevation.to_radians(), azimuth.to_radians());
-        let sun = Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos());
+        Self::sky_towards(crate::scene::light::sky::sun_towards(elevation, azimuth))
+    }
+
+    /// [`Self::sky`] with the sun in direction `sun` (towards it; y up).
+    pub fn sky_towards(sun: impl Into<Vec3>) -> Self {
+        let sun: Vec3 = sun.into();
+        let sun = if sun.length_squared() > 0.0 { sun.normalize() } else { sun };
         Self::of(LightKind::Sky {
             params: crate::scene::light::SkyParams {
                 sun,
@@ -727,6 +732,14 @@ impl LightDesc {
             sun: true,
             visible: true,
         })
+    }
+
+    /// The width of a sky's map in texels (its height is half; default 512).
+    pub fn sky_resolution(mut self, width: u32) -> Self {
+        if let LightKind::Sky { resolution, .. } = &mut self.kind {
+            *resolution = width;
+        }
+        self
     }
 
     /// A sky's turbidity (1.7 … 10).

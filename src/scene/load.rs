@@ -179,24 +179,15 @@ fn light(l: &LightDef, key: &str, places: &Places, base_dir: &Path) -> Result<Li
 
 /// A `sky` light's table: the sun by `elevation` and `azimuth` (degrees) or by `sun_direction`.
 fn sky(d: &crate::scene::format::SkyDef, key: &str, places: &Places) -> Result<LightKind> {
-    let sun = match (d.elevation, d.azimuth, d.sun_direction) {
+    let sky = match (d.elevation, d.azimuth, d.sun_direction) {
         (Some(e), a, None) => {
             if !(0.0..=90.0).contains(&e) {
                 let m = format!("must lie in [0, 90] degrees (the sun above the horizon), got {e}");
                 return Err(places.error(format!("{key}.elevation"), m));
             }
-            LightDesc::sky(e, a.unwrap_or(0.0)).kind
+            LightDesc::sky(e, a.unwrap_or(0.0))
         }
-        (None, None, Some(dir)) => {
-            let mut l = LightDesc::sky(45.0, 0.0).kind;
-            if let LightKind::Sky { params, .. } = &mut l {
-                params.sun = glam::Vec3::from(dir);
-                if params.sun.length_squared() > 0.0 {
-                    params.sun = params.sun.normalize();
-                }
-            }
-            l
-        }
+        (None, None, Some(dir)) => LightDesc::sky_towards(dir),
         (None, None, None) | (None, Some(_), None) => {
             let m = "a sky needs the sun's `elevation` (and `azimuth`), or `sun_direction`";
             return Err(places.error(format!("{key}.elevation"), m));
@@ -206,16 +197,20 @@ fn sky(d: &crate::scene::format::SkyDef, key: &str, places: &Places) -> Result<L
             return Err(places.error(format!("{key}.sun_direction"), m));
         }
     };
-    let LightKind::Sky { mut params, .. } = sun else { unreachable!() };
-    params.turbidity = d.turbidity.unwrap_or(params.turbidity);
-    params.ground_albedo = d.ground_albedo.map_or(params.ground_albedo, color);
-    Ok(LightKind::Sky {
-        params,
-        scale: d.scale.map_or(Rgb::ONE, color),
-        resolution: d.resolution.unwrap_or(512),
-        sun: d.sun.unwrap_or(true),
-        visible: d.visible.unwrap_or(true),
-    })
+    let mut sky = sky
+        .scale(d.scale.map_or(Rgb::ONE, color))
+        .with_sun(d.sun.unwrap_or(true))
+        .visible(d.visible.unwrap_or(true));
+    if let Some(t) = d.turbidity {
+        sky = sky.turbidity(t);
+    }
+    if let Some(a) = d.ground_albedo {
+        sky = sky.ground_albedo(color(a));
+    }
+    if let Some(w) = d.resolution {
+        sky = sky.sky_resolution(w);
+    }
+    Ok(sky.kind)
 }
 
 /// An `environment` light's table: a constant `radiance` or a map `file`, times `scale`.

@@ -18,7 +18,7 @@ pub use describe::{
     GeometryDesc, GridLayout, IntoRgb, LightDesc, LightKind, MaterialId, MaterialRef, MediumDesc,
     MediumId, MediumRef, ShapeDesc, TemperatureDesc, Transform, VoxelGrid,
 };
-pub use light::{EnvMap, Environment, SkyParams};
+pub use light::{EnvMap, Environment, SkyParams, sky};
 pub use material::{BsdfSample, Material, Transport};
 pub use shape::Mesh;
 
@@ -161,6 +161,9 @@ pub struct Scene {
     pub(crate) lights: Vec<Light>,
     /// For each shape, the index of its area light, if it emits.
     pub(crate) area_light: Vec<Option<u32>>,
+    /// Where each light was defined and what it is ([`Scene::light_label`]), aligned with
+    /// `lights`.
+    pub(crate) light_labels: Vec<String>,
     /// The index of the environment light in `lights`, if there is one.
     pub(crate) environment: Option<u32>,
     /// The medium each light emits into, aligned with `lights`.
@@ -267,32 +270,7 @@ impl Scene {
     /// Where light `i` (as counted by [`Self::light_count`]) was defined and what it is, e.g.
     /// `shapes[7], an area light` or `lights[1], a spot light`.
     pub fn light_label(&self, i: usize) -> String {
-        let Some(light) = self.lights.get(i) else { return format!("no light {i}") };
-        if let Light::Area { shape, .. } = light {
-            return format!("{}, an area light", self.shapes[*shape as usize].label);
-        }
-        // The `[[lights]]` table it came from: a sky's table makes two lights, its dome (an
-        // environment light) and its sun (the directional light right after it, if any).
-        let (mut table, mut after_sky) = (0, false);
-        for l in &self.lights[..i] {
-            match l {
-                Light::Area { .. } => continue,
-                Light::Directional { .. } if after_sky => {}
-                _ => table += 1,
-            }
-            after_sky = matches!(l, Light::Environment(env) if env.from_sky);
-        }
-        let sun = after_sky && matches!(light, Light::Directional { .. });
-        let kind = match light {
-            Light::Point { .. } => "a point light",
-            Light::Spot { .. } => "a spot light",
-            Light::Environment(env) if env.from_sky => "a sky (its dome)",
-            Light::Environment(_) => "an environment light",
-            _ if sun => "a sky (its sun)",
-            _ => "a directional light",
-        };
-        let table = if sun { table - 1 } else { table };
-        format!("lights[{table}], {kind}")
+        self.light_labels.get(i).cloned().unwrap_or_else(|| format!("no light {i}"))
     }
 
     /// The names of the media, in the order they were defined.

@@ -50,27 +50,32 @@ pub(crate) fn run(args: SkyArgs) -> Result<ExitCode> {
             args.elevation
         );
     }
-    if !(1.7..=10.0).contains(&args.turbidity) {
-        bail!("--turbidity must lie in [1.7, 10] (the model's range), got {}", args.turbidity);
-    }
-    if !(0.0..=1.0).contains(&args.ground_albedo) {
-        bail!("--ground-albedo must lie in [0, 1], got {}", args.ground_albedo);
-    }
-    if !(16..=8192).contains(&args.resolution) {
-        bail!("--resolution must lie in [16, 8192], got {}", args.resolution);
+    let widths = haze::scene::sky::WIDTHS;
+    if !widths.contains(&args.resolution) {
+        let (lo, hi) = (widths.start(), widths.end());
+        bail!("--resolution must lie in [{lo}, {hi}], got {}", args.resolution);
     }
     if !(args.scale.is_finite() && args.scale > 0.0) {
         bail!("--scale must be a positive number, got {}", args.scale);
     }
-    check_output_dir("--output", &args.output)?;
-    let (e, a) = (args.elevation.to_radians(), args.azimuth.to_radians());
     let params = SkyParams {
-        sun: haze::glam::Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos()),
+        sun: haze::scene::sky::sun_towards(args.elevation, args.azimuth),
         turbidity: args.turbidity,
         ground_albedo: haze::glam::Vec3::splat(args.ground_albedo),
     };
-    let (map, sun) = EnvMap::sky(&params, args.resolution, !args.no_sun);
-    let map = map.scaled(args.scale);
+    // The model's limits, each named by its flag.
+    params.check().map_err(|(field, m)| {
+        let flag = match field {
+            "turbidity" => "--turbidity",
+            "ground_albedo" => "--ground-albedo",
+            _ => "--elevation",
+        };
+        anyhow::anyhow!("{flag} {m}")
+    })?;
+    check_output_dir("--output", &args.output)?;
+    let (map, sun) =
+        EnvMap::sky(&params, args.resolution, !args.no_sun).map_err(anyhow::Error::msg)?;
+    let map = map.scaled(args.scale).map_err(anyhow::Error::msg)?;
     map.write_exr(&args.output)?;
     let [w, h] = map.size();
     eprintln!(

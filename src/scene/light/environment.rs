@@ -105,12 +105,12 @@ impl EnvMap {
         Ok(Self { width, height, texels, digest: h.finalize().into() })
     }
 
-    /// Reads the first RGB layer of an OpenEXR file. Errors name the file.
+    /// Reads the first RGB layer of an OpenEXR file. Errors name the file. A file larger than
+    /// the largest map uncompressed (16 bytes a texel: float RGBA) and 1 MiB of header is
+    /// refused unread.
     pub fn load(path: &Path) -> Result<Self> {
-        let (w, h, texels) =
-            crate::input::read_rgb_exr(path, MAX_MAP_TEXELS, "an environment map")?;
-        Self::new(w, h, texels)
-            .map_err(|message| Error::Image { path: path.to_path_buf(), message })
+        let most = 16 * MAX_MAP_TEXELS + (1 << 20);
+        Self::from_bytes(&crate::input::read_bounded(path, most, "an environment map")?, path)
     }
 
     /// [`Self::load`] on an OpenEXR file's bytes (`path` names it in errors).
@@ -126,9 +126,20 @@ impl EnvMap {
     /// it. With `sun_in_map` the sun is also folded into the map — its irradiance spread over
     /// the solid angle of the texel it lies in, as in an HDR photograph whose solar disc is
     /// smaller than a texel — so that the map alone lights a scene; else it is left to a
-    /// directional light. `width` is clamped to [16, 8192].
-    pub fn sky(params: &super::sky::SkyParams, width: u32, sun_in_map: bool) -> (Self, Rgb) {
-        let width = width.clamp(16, 8192) & !1;
+    /// directional light. Errors: the parameters outside the model's limits
+    /// ([`SkyParams::check`](super::sky::SkyParams::check), naming the field), a width outside
+    /// [`WIDTHS`](super::sky::WIDTHS).
+    pub fn sky(
+        params: &super::sky::SkyParams,
+        width: u32,
+        sun_in_map: bool,
+    ) -> std::result::Result<(Self, Rgb), String> {
+        params.check().map_err(|(field, m)| format!("{field}: {m}"))?;
+        let widths = super::sky::WIDTHS;
+        if !widths.contains(&width) {
+            let (lo, hi) = (widths.start(), widths.end());
+            return Err(format!("a sky's map is {lo} to {hi} texels wide, not {width}"));
+        }
         let (mut texels, w, h, sun) = super::sky::render(params, width);
         if sun_in_map && params.sun.y >= 0.0 {
             let uv = uv_of(params.sun.normalize());
@@ -139,14 +150,14 @@ impl EnvMap {
             let t = &mut texels[(y * w + x) as usize];
             *t = (Rgb::from(*t) + sun / solid).to_array();
         }
-        let map = Self::new(w, h, texels).expect("a rendered sky is a valid map");
-        (map, sun)
+        Ok((Self::new(w, h, texels)?, sun))
     }
 
-    /// The map with every texel multiplied by `s`.
-    pub fn scaled(self, s: f32) -> Self {
+    /// The map with every texel multiplied by `s`; an error if that makes a texel negative or
+    /// not finite.
+    pub fn scaled(self, s: f32) -> std::result::Result<Self, String> {
         let texels = self.texels.iter().map(|t| (*t * s).to_array()).collect();
-        Self::new(self.width, self.height, texels).expect("a scaled map stays valid")
+        Self::new(self.width, self.height, texels)
     }
 
     /// Writes the map as a one-layer RGB OpenEXR file (ZIP-compressed), atomically.
@@ -294,8 +305,6 @@ pub struct Environment {
     integral: Rgb,
     /// Whether camera rays that leave the scene see it.
     pub visible: bool,
-    /// Made by a `sky` table (which also makes its sun, the directional light after it).
-    pub(crate) from_sky: bool,
     /// The scene's bounding sphere, for photon emission.
     centre: Vec3,
     radius: f32,
@@ -326,7 +335,6 @@ impl Environment {
             distribution,
             integral,
             visible,
-            from_sky: false,
             centre,
             radius,
             importance: EnvImportance { table: Vec::new(), fluence: 0.0, floor: 0.0 },

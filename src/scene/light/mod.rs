@@ -28,7 +28,7 @@
 pub(crate) mod environment;
 pub(crate) mod media;
 mod sampler;
-pub(crate) mod sky;
+pub mod sky;
 mod tree;
 
 pub use environment::{EnvMap, Environment};

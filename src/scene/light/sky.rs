@@ -53,6 +53,41 @@ pub struct SkyParams {
 /// Turbidities the model accepts.
 pub const TURBIDITY: (f32, f32) = (1.7, 10.0);
 
+/// Widths of a sky's map, in texels (its height is half).
+pub const WIDTHS: std::ops::RangeInclusive<u32> = 16..=8192;
+
+/// The unit direction towards a sun `elevation` degrees above the horizon and `azimuth` degrees
+/// from +z towards +x.
+pub fn sun_towards(elevation: f32, azimuth: f32) -> Vec3 {
+    let (e, a) = (elevation.to_radians(), azimuth.to_radians());
+    Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos())
+}
+
+impl SkyParams {
+    /// The model's limits, checked: the sun a finite direction at or above the horizon, the
+    /// turbidity in [`TURBIDITY`], the ground's albedo in [0, 1]. The error names the field
+    /// (`sun_direction`, `turbidity`, `ground_albedo`) and says what is wrong.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        let sun = self.sun;
+        if !(sun.is_finite() && sun.length_squared() > 0.0 && sun.y >= 0.0) {
+            let m = format!(
+                "the sun must be at or above the horizon (elevation 0 to 90 degrees), got {sun}"
+            );
+            return Err(("sun_direction", m));
+        }
+        let (lo, hi) = TURBIDITY;
+        if !(self.turbidity >= lo && self.turbidity <= hi) {
+            let m = format!("must lie in [{lo}, {hi}] (the model's range), got {}", self.turbidity);
+            return Err(("turbidity", m));
+        }
+        let a = self.ground_albedo;
+        if !(a.is_finite() && a.min_element() >= 0.0 && a.max_element() <= 1.0) {
+            return Err(("ground_albedo", format!("must lie in [0, 1], got {a}")));
+        }
+        Ok(())
+    }
+}
+
 /// Perez coefficients A … E for one quantity at turbidity `t`.
 fn perez(t: f64, rows: [[f64; 2]; 5]) -> [f64; 5] {
     rows.map(|[a, b]| a * t + b)
