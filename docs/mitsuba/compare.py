@@ -486,6 +486,8 @@ def main():
     ap.add_argument("--keep-containers", action="store_true",
                     help="do not shrink a grid's null-BSDF container to the grid's bounds")
     args = ap.parse_args()
+    if args.save:
+        os.makedirs(args.save, exist_ok=True)
     global MAP_UPSCALE
     MAP_UPSCALE = args.map_upscale
     args.integrators = [i for i in args.integrators.split(",") if i]

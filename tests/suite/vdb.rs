@@ -312,6 +312,7 @@ fn grid_scenes_transmit_as_a_quadrature_of_their_density() {
     let scenes = [
         ("vdb-cloud", "cloud"),
         ("cumulus", "cloud"),
+        ("cumulus-sky", "cloud"),
         ("coloured-smoke", "smoke"),
         ("vdb-edges", "holes"),
         ("fire", "fire"),
