@@ -167,6 +167,14 @@ def base_sdf(rng):
     return upsample2(d, (NX, NY, NZ))
 
 
+def preview(density):
+    """With PREVIEW=PREFIX in the environment, saves the density's middle z slice and its sum
+    along z (a shadowgraph) as PREFIX-mid.npy and PREFIX-depth.npy, for a quick look."""
+    if os.environ.get("PREVIEW"):
+        np.save(os.environ["PREVIEW"] + "-mid.npy", density[:, :, density.shape[2] // 2])
+        np.save(os.environ["PREVIEW"] + "-depth.npy", density.sum(axis=2))
+
+
 def write_half(path, density):
     """Writes `density` as a sparse FloatGrid named density, pruned, in half floats, atomically;
     returns the grid."""
@@ -243,9 +251,7 @@ def main():
     c = write_half(crop, piece)
     print(f"wrote the fuzz seed cumulus-noise-piece.vdb: {os.path.getsize(crop)} bytes, "
           f"{c.activeVoxelCount()} active voxels")
-    if os.environ.get("PREVIEW"):
-        np.save(os.environ["PREVIEW"] + "-mid.npy", density[:, :, NZ // 2])
-        np.save(os.environ["PREVIEW"] + "-depth.npy", density.sum(axis=2))
+    preview(density)
     print(f"wrote cumulus-noise.vdb: {os.path.getsize(path)} bytes, {g.activeVoxelCount()} "
           f"active voxels, {g.leafCount()} leaves, {time.time() - t0:.1f} s")
 

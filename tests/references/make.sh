@@ -16,7 +16,8 @@ size() {
         awk '{w = int($1 / 16 + 0.5); h = int($2 / 16 + 0.5); if (w < 8) w = 8; if (h < 8) h = 8; print w "x" h}'
 }
 for s in campfire coloured-smoke cornell-box cornell-cloud-homogeneous cornell-cloud cornell-fog cumulus \
-    cumulus-sky fire fog-backward fog-forward spotlight-fog sunset-fog thin-fog vdb-cloud vdb-edges; do
+    cumulus-sky fire fog-backward fog-forward smoke-plume spotlight-fog sunset-fog thin-fog vdb-cloud \
+    vdb-edges; do
     "$HAZE" render "scenes/$s.toml" --integrator path -n 8192 --seed 1000 \
         --resolution "$(size "$s")" -q -o "tests/references/$s.exr"
     rm -f "tests/references/$s.png"

@@ -28,7 +28,7 @@ use haze::settings::{Integrator, RenderSettings};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-const PATH_TRACED: [&str; 16] = [
+const PATH_TRACED: [&str; 17] = [
     "campfire",
     "coloured-smoke",
     "cornell-box",
@@ -40,6 +40,7 @@ const PATH_TRACED: [&str; 16] = [
     "fire",
     "fog-backward",
     "fog-forward",
+    "smoke-plume",
     "spotlight-fog",
     "sunset-fog",
     "thin-fog",

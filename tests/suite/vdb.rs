@@ -314,6 +314,7 @@ fn grid_scenes_transmit_as_a_quadrature_of_their_density() {
         ("cumulus", "cloud"),
         ("cumulus-sky", "cloud"),
         ("coloured-smoke", "smoke"),
+        ("smoke-plume", "smoke"),
         ("vdb-edges", "holes"),
         ("fire", "fire"),
         ("campfire", "fire"),
