@@ -75,6 +75,24 @@ pub(crate) fn exr_size_refusal(
     None
 }
 
+/// An OpenEXR layer's RGB pixels as the readers here collect them: the width and the pixels,
+/// row by row.
+pub(crate) type RgbPixels = (usize, Vec<[f32; 3]>);
+
+/// The exr crate's `rgb_channels` storage for a layer of `size`, black.
+pub(crate) fn rgb_storage(size: exr::math::Vec2<usize>, _: &exr::image::RgbChannels) -> RgbPixels {
+    (size.width(), vec![[0.0f32; 3]; size.width() * size.height()])
+}
+
+/// The exr crate's `rgb_channels` setter: one pixel at `pos`.
+pub(crate) fn rgb_set(
+    (w, px): &mut RgbPixels,
+    pos: exr::math::Vec2<usize>,
+    (r, g, b): (f32, f32, f32),
+) {
+    px[pos.y() * *w + pos.x()] = [r, g, b];
+}
+
 /// The first RGB layer of an OpenEXR file's `bytes` (`path` names it in errors). The header is
 /// read first and an image of more than `max_texels` refused before any pixel buffer is
 /// allocated (the reader sizes its buffers from the declared data window); a panic of the exr
@@ -99,12 +117,7 @@ pub(crate) fn rgb_exr_from_bytes(
         read()
             .no_deep_data()
             .largest_resolution_level()
-            .rgb_channels(
-                |res, _| (res.width(), vec![[0.0f32; 3]; res.width() * res.height()]),
-                |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b): (f32, f32, f32)| {
-                    px[pos.y() * *w + pos.x()] = [r, g, b];
-                },
-            )
+            .rgb_channels(rgb_storage, rgb_set)
             .first_valid_layer()
             .all_attributes()
             .from_buffered(cursor())

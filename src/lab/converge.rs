@@ -103,12 +103,7 @@ impl Reference {
         let image = read()
             .no_deep_data()
             .largest_resolution_level()
-            .rgb_channels(
-                |res, _| (res.width(), vec![[0.0f32; 3]; res.width() * res.height()]),
-                |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b): (f32, f32, f32)| {
-                    px[pos.y() * *w + pos.x()] = [r, g, b];
-                },
-            )
+            .rgb_channels(crate::input::rgb_storage, crate::input::rgb_set)
             .all_layers()
             .all_attributes()
             .from_file(path)
