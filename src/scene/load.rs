@@ -181,10 +181,8 @@ fn light(l: &LightDef, key: &str, places: &Places, base_dir: &Path) -> Result<Li
 fn sky(d: &crate::scene::format::SkyDef, key: &str, places: &Places) -> Result<LightKind> {
     let sky = match (d.elevation, d.azimuth, d.sun_direction) {
         (Some(e), a, None) => {
-            if !(0.0..=90.0).contains(&e) {
-                let m = format!("must lie in [0, 90] degrees (the sun above the horizon), got {e}");
-                return Err(places.error(format!("{key}.elevation"), m));
-            }
+            crate::scene::sky::check_elevation(e)
+                .map_err(|m| places.error(format!("{key}.elevation"), m))?;
             LightDesc::sky(e, a.unwrap_or(0.0))
         }
         (None, None, Some(dir)) => LightDesc::sky_towards(dir),

@@ -44,11 +44,8 @@ pub(crate) fn run(args: SkyArgs) -> Result<ExitCode> {
             args.output.display()
         );
     }
-    if !(0.0..=90.0).contains(&args.elevation) {
-        bail!(
-            "--elevation must lie in [0, 90] degrees (the sun above the horizon), got {}",
-            args.elevation
-        );
+    if let Err(m) = haze::scene::sky::check_elevation(args.elevation) {
+        bail!("--elevation {m}");
     }
     let widths = haze::scene::sky::WIDTHS;
     if !widths.contains(&args.resolution) {

@@ -56,6 +56,15 @@ pub const TURBIDITY: (f32, f32) = (1.7, 10.0);
 /// Widths of a sky's map, in texels (its height is half).
 pub const WIDTHS: std::ops::RangeInclusive<u32> = 16..=8192;
 
+/// Refuses a sun elevation outside [0, 90] degrees (beyond 90 the direction would wrap over to
+/// the opposite azimuth): the message, for the caller to prefix with its key or flag.
+pub fn check_elevation(elevation: f32) -> Result<(), String> {
+    if (0.0..=90.0).contains(&elevation) {
+        return Ok(());
+    }
+    Err(format!("must lie in [0, 90] degrees (the sun above the horizon), got {elevation}"))
+}
+
 /// The unit direction towards a sun `elevation` degrees above the horizon and `azimuth` degrees
 /// from +z towards +x.
 pub fn sun_towards(elevation: f32, azimuth: f32) -> Vec3 {
