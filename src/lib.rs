@@ -77,6 +77,8 @@ pub mod partial;
 mod photon;
 mod plan;
 pub mod progress;
+#[cfg(feature = "python")]
+mod python;
 pub mod raybench;
 mod region;
 mod render;

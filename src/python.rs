@@ -1,0 +1,444 @@
+//! The Python module `haze` (feature `python`, built by maturin from pyproject.toml; the Python
+//! side, its stub and its documentation are in `src/python/haze/`, the guide is
+//! docs/python.md).
+//!
+//! A render runs on a worker thread with the GIL released; the calling thread waits for it,
+//! taking the GIL every [`POLL`] to look for Ctrl-C (`KeyboardInterrupt`: the render stops at the
+//! end of its iteration) and to call the progress callback, at most every [`CALLBACK_EVERY`].
+//! Layers reach NumPy without a copy: each array owns the buffer the renderer filled.
+
+mod convert;
+mod image;
+
+use crate::partial::Partial;
+use crate::progress::Status;
+use crate::render::{Start, render_partial};
+use crate::settings::{RenderOptions, RenderSettings};
+use crate::{Error, Scene};
+use convert::{SceneError, scene_error, to_py_err, to_python};
+use image::{PyImage, PyPartial, PyProgress};
+use pyo3::exceptions::PyKeyboardInterrupt;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyRange};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, mpsc};
+use std::time::{Duration, Instant};
+
+/// How often the waiting thread looks for Ctrl-C.
+const POLL: Duration = Duration::from_millis(50);
+/// The shortest time between two calls of a progress callback.
+const CALLBACK_EVERY: Duration = Duration::from_millis(250);
+
+/// A scene, loaded and checked (see the package's documentation).
+#[pyclass(module = "haze", name = "Scene", frozen)]
+struct PyScene {
+    scene: Arc<Scene>,
+}
+
+/// A scene's settings (or a render's) as a dict of the `[render]` keys; unset ones are None.
+fn settings_dict<'py>(py: Python<'py>, s: &RenderSettings) -> PyResult<Bound<'py, PyAny>> {
+    let value = toml::Value::try_from(s).map_err(|e| scene_error(format!("settings: {e}")))?;
+    let d = to_python(py, &value)?.cast_into::<PyDict>()?;
+    for key in RenderOptions::KEYS {
+        if !d.contains(key)? {
+            d.set_item(key, py.None())?;
+        }
+    }
+    Ok(d.into_any())
+}
+
+/// An error of a scene given as a dict: without line numbers, which would count lines of the
+/// TOML text made from the dict.
+fn without_line(e: Error) -> Error {
+    match e {
+        Error::Parse { path, message, .. } => Error::Parse { path, line: None, message },
+        Error::Invalid { path, key, message, .. } => {
+            Error::Invalid { path, line: None, key, message }
+        }
+        other => other,
+    }
+}
+
+#[pymethods]
+impl PyScene {
+    /// Loads a scene file (docs/scene-format.md); relative paths in it resolve against the
+    /// file's directory.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let scene = py.detach(|| Scene::load(&path)).map_err(to_py_err)?;
+        Ok(Self { scene: Arc::new(scene) })
+    }
+
+    /// A scene from the text of a scene file; relative paths resolve against `base_dir` (the
+    /// working directory by default); `name` names the text in error messages.
+    #[staticmethod]
+    #[pyo3(signature = (text, base_dir = None, name = "<string>"))]
+    fn from_toml(
+        py: Python<'_>,
+        text: &str,
+        base_dir: Option<PathBuf>,
+        name: &str,
+    ) -> PyResult<Self> {
+        let base = base_dir.unwrap_or_else(|| PathBuf::from("."));
+        let scene =
+            py.detach(|| Scene::from_toml(text, Path::new(name), &base)).map_err(to_py_err)?;
+        Ok(Self { scene: Arc::new(scene) })
+    }
+
+    /// A scene from a dict with the keys of a scene file (`camera`, `render`, `materials`,
+    /// `media`, `shapes`, `lights`); relative paths resolve against `base_dir` (the working
+    /// directory by default). Errors name the key, e.g. `<dict>: media.fog.sigma_s: …`.
+    #[staticmethod]
+    #[pyo3(signature = (scene, base_dir = None))]
+    fn from_dict(
+        py: Python<'_>,
+        scene: &Bound<'_, PyDict>,
+        base_dir: Option<PathBuf>,
+    ) -> PyResult<Self> {
+        let table = convert::table(scene, "")?;
+        let text = toml::to_string(&table).map_err(|e| scene_error(format!("<dict>: {e}")))?;
+        let base = base_dir.unwrap_or_else(|| PathBuf::from("."));
+        let scene = py
+            .detach(|| Scene::from_toml(&text, Path::new("<dict>"), &base))
+            .map_err(|e| to_py_err(without_line(e)))?;
+        Ok(Self { scene: Arc::new(scene) })
+    }
+
+    /// (width, height) of the camera's image in pixels.
+    #[getter]
+    fn resolution(&self) -> (u32, u32) {
+        let [w, h] = self.scene.camera.resolution;
+        (w, h)
+    }
+
+    /// The scene's render settings (its `[render]` table over the defaults), as a dict.
+    #[getter]
+    fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        settings_dict(py, &self.scene.settings)
+    }
+
+    /// The scene file's path, or None for a scene made from text or a dict.
+    #[getter]
+    fn path(&self) -> Option<PathBuf> {
+        self.scene.source.clone().filter(|p| p.extension().is_some_and(|e| e == "toml"))
+    }
+
+    fn __repr__(&self) -> String {
+        let [w, h] = self.scene.camera.resolution;
+        let from =
+            self.scene.source.as_ref().map_or(String::new(), |p| format!(" from {}", p.display()));
+        format!("<haze.Scene {w}x{h}{from}>")
+    }
+}
+
+/// The iterations of a render call: a count (from iteration 1), a range of indices (a partial
+/// render), or the scene's own.
+enum Iterations {
+    Scene,
+    Count(u64),
+    Range(u64, u64),
+}
+
+fn parse_iterations(v: Option<&Bound<'_, PyAny>>) -> PyResult<Iterations> {
+    let Some(v) = v else { return Ok(Iterations::Scene) };
+    if let Ok(r) = v.cast::<PyRange>() {
+        let (start, stop, step): (i64, i64, i64) = (
+            r.getattr("start")?.extract()?,
+            r.getattr("stop")?.extract()?,
+            r.getattr("step")?.extract()?,
+        );
+        if step != 1 || start < 1 || stop <= start {
+            return Err(scene_error(format!(
+                "iterations: a range of iteration indices needs step 1, a start of at least 1 and \
+                 an end past it (indices count from 1, as on the command line: range(1, 9) is \
+                 1..8), got range({start}, {stop}, {step})"
+            )));
+        }
+        return Ok(Iterations::Range(start as u64, stop as u64 - 1));
+    }
+    match v.extract::<i64>() {
+        Ok(n) if n >= 1 => Ok(Iterations::Count(n as u64)),
+        _ => {
+            Err(scene_error(format!("iterations: must be a positive integer or a range, got {v}")))
+        }
+    }
+}
+
+/// The settings of a render call: the scene's, then the keyword arguments.
+fn render_settings(scene: &Scene, options: &Bound<'_, PyDict>) -> PyResult<RenderSettings> {
+    let table = convert::table(options, "")?;
+    let options = read_options(&table)?;
+    options.check_pairs().map_err(|e| scene_error(format!("render setting {e}")))?;
+    let settings = scene.settings.with(&options);
+    settings.validate().map_err(|e| scene_error(format!("render setting {e}")))?;
+    Ok(settings)
+}
+
+/// Render options from a table of keyword arguments; an error names the key.
+fn read_options(table: &toml::Table) -> PyResult<RenderOptions> {
+    let read = |t: toml::Table| toml::Value::Table(t).try_into::<RenderOptions>();
+    read(table.clone()).map_err(|e| {
+        // The error does not say which key: find the first that fails alone.
+        let key = table
+            .iter()
+            .find(|(k, v)| read(toml::Table::from_iter([((*k).clone(), (*v).clone())])).is_err());
+        match key {
+            Some((k, _)) => scene_error(format!("render setting {k}: {}", e.message())),
+            None => scene_error(format!("render setting: {}", e.message())),
+        }
+    })
+}
+
+/// The worker pools, one per thread count asked for (0: rayon's default), kept for the next
+/// render.
+fn pool(threads: Option<usize>) -> PyResult<Arc<rayon::ThreadPool>> {
+    static POOLS: Mutex<Vec<(usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let n = threads.unwrap_or(0);
+    if threads.is_some() && !(1..=8 * cores).contains(&n) {
+        return Err(scene_error(format!(
+            "threads: must lie in 1..={} (8 per core on this machine), got {n}",
+            8 * cores
+        )));
+    }
+    let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, p)) = pools.iter().find(|(k, _)| *k == n) {
+        return Ok(p.clone());
+    }
+    let p = rayon::ThreadPoolBuilder::new().num_threads(n).build().map_err(|e| {
+        pyo3::exceptions::PyOSError::new_err(format!("cannot start worker threads: {e}"))
+    })?;
+    let p = Arc::new(p);
+    pools.push((n, p.clone()));
+    Ok(p)
+}
+
+/// What the worker thread tells the waiting one.
+enum Report {
+    Progress(PyProgress),
+    Done(Box<crate::Result<Partial>>),
+}
+
+/// The progress a callback sees, from a render's status; the error estimate only if `error`.
+fn progress_of(s: &Status<'_>, error: bool) -> PyProgress {
+    let first = s.info.first_iteration;
+    PyProgress {
+        iteration: s.info.iterations,
+        total: s.target_iterations.map(|t| (t + 1).saturating_sub(first)),
+        elapsed: s.info.elapsed,
+        time_limit: s.time_limit,
+        error: if error { s.error_estimate().map(|e| e.upper) } else { None },
+    }
+}
+
+/// Runs a render on a worker thread with the GIL released; the calling thread waits, looking
+/// for Ctrl-C and calling `callback` (see the module's documentation). Returns the render's
+/// result and the Python error that stopped it, if one did.
+fn run(
+    py: Python<'_>,
+    scene: &Scene,
+    settings: &RenderSettings,
+    start: u64,
+    threads: Option<usize>,
+    callback: Option<&Py<PyAny>>,
+) -> PyResult<(crate::Result<Partial>, Option<PyErr>)> {
+    let pool = pool(threads)?;
+    let stop = AtomicBool::new(false);
+    let wants = callback.is_some();
+    Ok(py.detach(|| {
+        std::thread::scope(|s| {
+            let (tx, rx) = mpsc::channel();
+            let (stop, pool) = (&stop, &pool);
+            s.spawn(move || {
+                let mut last_error = Instant::now();
+                let mut on_iteration = |st: &Status<'_>| {
+                    if wants {
+                        let due = last_error.elapsed() >= CALLBACK_EVERY;
+                        if due {
+                            last_error = Instant::now();
+                        }
+                        let _ = tx.send(Report::Progress(progress_of(st, due)));
+                    }
+                };
+                let result = pool.install(|| {
+                    render_partial(scene, settings, Start::At(start), &mut on_iteration, stop)
+                });
+                let _ = tx.send(Report::Done(Box::new(result)));
+            });
+            wait(&rx, stop, callback)
+        })
+    }))
+}
+
+/// The progress of a finished render, with its error estimate.
+fn final_progress(part: &Partial) -> PyProgress {
+    let (info, s) = (&part.info, &part.info.settings);
+    PyProgress {
+        iteration: info.iterations,
+        total: s.iterations.map(|t| (t + 1).saturating_sub(info.first_iteration)),
+        elapsed: info.elapsed,
+        time_limit: s.time_limit,
+        error: part.film.error_estimate(s.target_confidence, s.target_region).map(|e| e.upper),
+    }
+}
+
+/// The calling thread's side of [`run`]: waits for the worker's result.
+fn wait(
+    rx: &mpsc::Receiver<Report>,
+    stop: &AtomicBool,
+    callback: Option<&Py<PyAny>>,
+) -> (crate::Result<Partial>, Option<PyErr>) {
+    let mut raised: Option<PyErr> = None;
+    let mut latest: Option<PyProgress> = None;
+    let mut called = Instant::now() - CALLBACK_EVERY;
+    loop {
+        let done = match rx.recv_timeout(POLL) {
+            Ok(Report::Done(result)) => {
+                if let (Some(_), Ok(part)) = (callback, result.as_ref()) {
+                    latest = (part.info.iterations > 0).then(|| final_progress(part));
+                }
+                Some(*result)
+            }
+            Ok(Report::Progress(p)) => {
+                let error = p.error.or(latest.as_ref().and_then(|l| l.error));
+                latest = Some(PyProgress { error, ..p });
+                None
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => None,
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                Some(Err(Error::Settings("the render's thread ended without a result".into())))
+            }
+        };
+        if raised.is_none() {
+            Python::attach(|py| {
+                let due = called.elapsed() >= CALLBACK_EVERY || done.is_some();
+                let result = py.check_signals().and_then(|()| match (callback, latest.take()) {
+                    (Some(cb), Some(p)) if due => {
+                        called = Instant::now();
+                        cb.bind(py).call1((p,)).map(|_| ())
+                    }
+                    (_, p) => {
+                        latest = p;
+                        Ok(())
+                    }
+                });
+                if let Err(e) = result {
+                    stop.store(true, Ordering::Relaxed);
+                    raised = Some(e);
+                }
+            });
+        }
+        if let Some(result) = done {
+            return (result, raised);
+        }
+    }
+}
+
+/// Renders `scene` with its settings, overridden by the arguments and by any `[render]` key
+/// given as a keyword (photons=, integrator=, alpha=, volume_estimate=, merges=, ...).
+///
+/// iterations: a count (from iteration 1), or a range of iteration indices counted from 1 as on
+///     the command line (range(1, 9) is iterations 1..8), which returns a Partial.
+/// time: a time limit in seconds (with no count, the render runs until it).
+/// target_error: stop once the estimated relative error (Image.error) is this low; the
+///     iteration count or the time limit still bounds the render.
+/// threads: worker threads (default: every core).
+/// seed: the seed of every random stream; the same scene, seed and iterations give the same
+///     image whatever the thread count.
+/// progress: called with a haze.Progress from this thread, at most four times a second and
+///     once at the end; an exception it raises stops the render and propagates.
+///
+/// Returns a haze.Image (a haze.Partial for a range). Releases the GIL while rendering. Ctrl-C
+/// stops at the end of the current iteration and raises KeyboardInterrupt with the finished
+/// iterations as its `partial` attribute (a haze.Partial, or None). Raises haze.SceneError for
+/// a bad setting.
+#[pyfunction]
+#[pyo3(signature = (scene, iterations = None, time = None, target_error = None, threads = None, seed = None, progress = None, **settings))]
+#[allow(clippy::too_many_arguments)]
+fn render(
+    py: Python<'_>,
+    scene: &PyScene,
+    iterations: Option<&Bound<'_, PyAny>>,
+    time: Option<f64>,
+    target_error: Option<f64>,
+    threads: Option<usize>,
+    seed: Option<&Bound<'_, PyAny>>,
+    progress: Option<Py<PyAny>>,
+    settings: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Py<PyAny>> {
+    let options = match settings {
+        Some(d) => d.copy()?,
+        None => PyDict::new(py),
+    };
+    let range = iterations_option(&options, parse_iterations(iterations)?)?;
+    for (key, value) in [("time_limit", time), ("target_error", target_error)] {
+        if let Some(v) = value {
+            options.set_item(key, v)?;
+        }
+    }
+    if let Some(s) = seed {
+        options.set_item("seed", s)?;
+    }
+    let settings = render_settings(&scene.scene, &options)?;
+    let start = range.map_or(1, |r| r.0);
+    let (result, raised) = run(py, &scene.scene, &settings, start, threads, progress.as_ref())?;
+    let part = result.map_err(to_py_err)?;
+    if let Some(e) = raised {
+        return Err(interrupted(py, e, part));
+    }
+    if range.is_some() {
+        return Ok(Py::new(py, PyPartial { part })?.into_any());
+    }
+    let image = PyPartial { part }.image_for_render(py)?;
+    Ok(Py::new(py, image)?.into_any())
+}
+
+/// Sets the `iterations` option of a render call; returns the range, for a partial render.
+fn iterations_option(options: &Bound<'_, PyDict>, it: Iterations) -> PyResult<Option<(u64, u64)>> {
+    match it {
+        Iterations::Scene => Ok(None),
+        Iterations::Count(n) => options.set_item("iterations", n).map(|()| None),
+        Iterations::Range(a, b) => options.set_item("iterations", b).map(|()| Some((a, b))),
+    }
+}
+
+/// The error that stopped a render. A `KeyboardInterrupt` carries the iterations finished as
+/// its `partial` attribute (a `haze.Partial`, or None if none finished), so no finished work is
+/// lost.
+fn interrupted(py: Python<'_>, e: PyErr, part: Partial) -> PyErr {
+    if !e.is_instance_of::<PyKeyboardInterrupt>(py) {
+        return e;
+    }
+    let finished = part.info.iterations;
+    let e = PyKeyboardInterrupt::new_err(format!(
+        "render stopped after {finished} iterations (the exception's `partial` holds them)"
+    ));
+    let partial =
+        if finished > 0 { Py::new(py, PyPartial { part }).ok().map(Py::into_any) } else { None };
+    let _ = e.value(py).setattr("partial", partial);
+    let _ = e.value(py).setattr("iterations", finished);
+    e
+}
+
+/// Merges partial renders (Partial objects or `.hpr` paths) into the image of their union.
+#[pyfunction]
+fn merge(py: Python<'_>, parts: Vec<Bound<'_, PyAny>>) -> PyResult<PyImage> {
+    let merged = PyPartial::merge_parts(py, parts)?;
+    merged.image_for_render(py)
+}
+
+/// The native part of the `haze` package.
+#[pymodule]
+#[pyo3(name = "_haze")]
+fn haze_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyScene>()?;
+    m.add_class::<PyImage>()?;
+    m.add_class::<PyPartial>()?;
+    m.add_class::<PyProgress>()?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(merge, m)?)?;
+    m.add("SceneError", m.py().get_type::<SceneError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
