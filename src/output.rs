@@ -107,6 +107,25 @@ impl Image {
         }
     }
 
+    /// The image's estimated relative error from its layers: the figure
+    /// [`Film::error_estimate`] gives for the film it came from, at `confidence`, over
+    /// `region` (or the whole image). `None` without a variance layer (below two iterations).
+    pub fn error_estimate(
+        &self,
+        confidence: f64,
+        region: Option<Region>,
+    ) -> Option<crate::film::ErrorEstimate> {
+        let layers = crate::film::ErrorLayers {
+            mean: &self.pixels,
+            variance: self.variance.as_deref()?,
+            bias: self.bias.as_deref(),
+            bias_variance: self.bias_variance.as_deref(),
+            iterations: self.info.iterations,
+            size: (self.width, self.height),
+        };
+        layers.estimate(confidence, region)
+    }
+
     /// The estimated kernel bias of the image relative to its mean, over `region` (or the whole
     /// image): Σ b / Σ m over the region's pixels and channels, b the bias layer, with its
     /// standard error from the bias estimate's variance (pixels independent). `None` without a
@@ -385,5 +404,53 @@ mod noisiest_tests {
         assert!(kept.windows(2).all(|p| p[0] < p[1]), "kept in pixel order");
         let small = Region { x0: 0, y0: 0, x1: 30, y1: 30 };
         assert_eq!(small.counted(w, h, var).count(), 900);
+    }
+}
+
+#[cfg(test)]
+mod error_tests {
+    use super::*;
+
+    /// An image's error estimate from its layers is its film's, with and without bias sums and
+    /// over a region.
+    #[test]
+    fn an_images_error_estimate_is_its_films() {
+        let (w, h) = (40u32, 30u32);
+        for with_bias in [false, true] {
+            let mut film = if with_bias { Film::with_bias(w, h) } else { Film::new(w, h) };
+            for k in 0..5u32 {
+                let value = |i: usize, c: usize| {
+                    let x =
+                        (i as u32).wrapping_mul(2_654_435_761).wrapping_add(k * 97 + c as u32 * 13);
+                    glam::Vec3::splat(0.5 + (x % 1000) as f32 / 1000.0)
+                };
+                let image: Vec<_> = (0..(w * h) as usize).map(|i| value(i, 0)).collect();
+                let bias: Vec<_> = (0..(w * h) as usize).map(|i| value(i, 1) * 0.01).collect();
+                film.add_with_bias(&image, &bias);
+            }
+            let mut info_settings = RenderSettings::default();
+            info_settings.target_confidence = 0.9;
+            let info = RenderInfo {
+                settings: info_settings,
+                first_iteration: 1,
+                iterations: film.iterations(),
+                light_paths: 0,
+                initial_radius: 0.0,
+                radius: 0.0,
+                volume_initial_radius: 0.0,
+                volume_radius: 0.0,
+                elapsed: 0.0,
+                scene: None,
+                nonfinite_samples: 0,
+                truncated_trackings: 0,
+            };
+            let image = Image::from_film(&film, info);
+            let region = Some(Region { x0: 3, y0: 4, x1: 20, y1: 25 });
+            for r in [None, region] {
+                let (a, b) =
+                    (image.error_estimate(0.9, r).unwrap(), film.error_estimate(0.9, r).unwrap());
+                assert_eq!((a.relative_rmse, a.upper), (b.relative_rmse, b.upper));
+            }
+        }
     }
 }

@@ -232,43 +232,41 @@ fn progress_of(s: &Status<'_>, error: bool) -> PyProgress {
     }
 }
 
-/// Runs a render on a worker thread with the GIL released; the calling thread waits, looking
-/// for Ctrl-C and calling `callback` (see the module's documentation). Returns the render's
-/// result and the Python error that stopped it, if one did.
+/// Runs a render as a job of the worker pool, with the GIL released; the calling thread waits,
+/// looking for Ctrl-C and calling `callback` (see the module's documentation). Returns the
+/// render's result and the Python error that stopped it, if one did.
 fn run(
     py: Python<'_>,
-    scene: &Scene,
-    settings: &RenderSettings,
+    scene: &Arc<Scene>,
+    settings: RenderSettings,
     start: u64,
     threads: Option<usize>,
     callback: Option<&Py<PyAny>>,
 ) -> PyResult<(crate::Result<Partial>, Option<PyErr>)> {
     let pool = pool(threads)?;
-    let stop = AtomicBool::new(false);
+    let stop = Arc::new(AtomicBool::new(false));
     let wants = callback.is_some();
-    Ok(py.detach(|| {
-        std::thread::scope(|s| {
-            let (tx, rx) = mpsc::channel();
-            let (stop, pool) = (&stop, &pool);
-            s.spawn(move || {
-                let mut last_error = Instant::now();
-                let mut on_iteration = |st: &Status<'_>| {
-                    if wants {
-                        let due = last_error.elapsed() >= CALLBACK_EVERY;
-                        if due {
-                            last_error = Instant::now();
-                        }
-                        let _ = tx.send(Report::Progress(progress_of(st, due)));
-                    }
-                };
-                let result = pool.install(|| {
-                    render_partial(scene, settings, Start::At(start), &mut on_iteration, stop)
-                });
-                let _ = tx.send(Report::Done(Box::new(result)));
-            });
-            wait(&rx, stop, callback)
-        })
-    }))
+    let (tx, rx) = mpsc::channel();
+    let (scene, job_stop) = (scene.clone(), stop.clone());
+    pool.spawn(move || {
+        let mut last_error = Instant::now();
+        let mut on_iteration = |st: &Status<'_>| {
+            if wants {
+                let due = last_error.elapsed() >= CALLBACK_EVERY;
+                if due {
+                    last_error = Instant::now();
+                }
+                let _ = tx.send(Report::Progress(progress_of(st, due)));
+            }
+        };
+        // A panic is a bug; it becomes an exception rather than aborting the interpreter.
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            render_partial(&scene, &settings, Start::At(start), &mut on_iteration, &job_stop)
+        }))
+        .unwrap_or_else(|_| Err(Error::Settings("internal error: the render panicked".into())));
+        let _ = tx.send(Report::Done(Box::new(result)));
+    });
+    Ok(py.detach(move || wait(&rx, &stop, callback)))
 }
 
 /// The progress of a finished render, with its error estimate.
@@ -382,7 +380,7 @@ fn render(
     }
     let settings = render_settings(&scene.scene, &options)?;
     let start = range.map_or(1, |r| r.0);
-    let (result, raised) = run(py, &scene.scene, &settings, start, threads, progress.as_ref())?;
+    let (result, raised) = run(py, &scene.scene, settings, start, threads, progress.as_ref())?;
     let part = result.map_err(to_py_err)?;
     if let Some(e) = raised {
         return Err(interrupted(py, e, part));

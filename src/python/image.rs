@@ -67,13 +67,11 @@ pub struct PyImage {
 }
 
 impl PyImage {
-    /// The image's layers handed to NumPy, with its summary (`error`: the film's estimate).
-    pub(super) fn new(
-        py: Python<'_>,
-        image: Image,
-        error: Option<ErrorEstimate>,
-    ) -> PyResult<Self> {
+    /// The image's layers handed to NumPy, with its summary.
+    pub(super) fn new(py: Python<'_>, image: Image) -> PyResult<Self> {
         let (w, h) = (image.width, image.height);
+        let s = &image.info.settings;
+        let error = image.error_estimate(s.target_confidence, s.target_region);
         let relative_noise = image.relative_noise(None);
         let kernel_bias = image.relative_bias(None);
         let (rgb, a0) = layer(py, image.pixels, w, h)?;
@@ -246,11 +244,9 @@ impl PyPartial {
         Ok(Self { part })
     }
 
-    /// The image of these iterations, with the film's error estimate.
+    /// The image of these iterations.
     pub(super) fn image_for_render(&self, py: Python<'_>) -> PyResult<PyImage> {
-        let (film, s) = (&self.part.film, &self.part.info.settings);
-        let error = film.error_estimate(s.target_confidence, s.target_region);
-        PyImage::new(py, self.part.image(), error)
+        PyImage::new(py, self.part.image())
     }
 }
 
