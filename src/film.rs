@@ -333,6 +333,78 @@ impl Film {
     }
 }
 
+/// The layers an error estimate reads (docs/error.md): the mean image, each pixel's variance of
+/// the mean, and the kernel bias with its variance where there is one.
+pub(crate) struct ErrorLayers<'a> {
+    pub mean: &'a [[f32; 3]],
+    pub variance: &'a [[f32; 3]],
+    pub bias: Option<&'a [[f32; 3]]>,
+    pub bias_variance: Option<&'a [[f32; 3]]>,
+    /// Iterations averaged (at least 2).
+    pub iterations: u64,
+    /// (width, height).
+    pub size: (u32, u32),
+}
+
+impl ErrorLayers<'_> {
+    /// [`Film::error_estimate`] on these layers.
+    pub fn estimate(
+        &self,
+        confidence: f64,
+        region: Option<crate::region::Region>,
+    ) -> Option<ErrorEstimate> {
+        let (mean, variance) = (self.mean, self.variance);
+        let (bias, bias_var) = (self.bias, self.bias_variance);
+        let n = self.iterations as f64;
+        let (mut sum, mut v, mut v2, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        let (mut b, mut b2) = (0.0f64, 0.0f64);
+        let (w, h) = self.size;
+        let pixel_variance = |i: usize| variance[i].iter().map(|&c| c as f64).sum::<f64>();
+        let region = region.unwrap_or(crate::region::Region::whole(w, h));
+        for i in region.counted(w, h, pixel_variance) {
+            let (m, var) = (mean[i], variance[i]);
+            let (mut pixel, mut pixel_b) = (0.0, 0.0);
+            for c in 0..3 {
+                sum += m[c] as f64;
+                pixel += var[c] as f64;
+                count += 1.0;
+                if let (Some(bias), Some(w)) = (&bias, &bias_var) {
+                    let (bb, w) = (bias[i][c] as f64, w[i][c] as f64);
+                    b += bb * bb - w;
+                    // Sampling variance of b² − w: 4 b² w + 2 w² (Gaussian b).
+                    pixel_b += (4.0 * (bb * bb - w).max(0.0) * w + 2.0 * w * w).sqrt();
+                }
+            }
+            v += pixel;
+            // A pixel's channels come from the same paths: their variance estimates' errors are
+            // taken as fully correlated (the sampling s.d. of the three add).
+            v2 += pixel * pixel;
+            b2 += pixel_b * pixel_b;
+        }
+        let (mean, v_mean) = (sum / count, v / count);
+        let b_mean = (b / count).max(0.0);
+        if mean.is_nan() || mean < 0.0 {
+            return None;
+        }
+        if mean == 0.0 && v_mean == 0.0 && b_mean == 0.0 {
+            // A black image without noise: nothing left to estimate (and a render stopping on a
+            // target must stop).
+            return Some(ErrorEstimate { relative_rmse: 0.0, upper: 0.0, confidence });
+        }
+        if mean == 0.0 {
+            return None;
+        }
+        let se = ((2.0 * v2 / (n - 1.0)) + b2).sqrt() / count;
+        let z = crate::math::normal_quantile(confidence.clamp(1e-9, 1.0 - 1e-9));
+        let total = v_mean + b_mean;
+        Some(ErrorEstimate {
+            relative_rmse: total.sqrt() / mean,
+            upper: (total + z * se).max(0.0).sqrt() / mean,
+            confidence,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -412,77 +484,5 @@ mod tests {
         assert_eq!(f.saturated(), 4); // 1e30 and its square, -1e30 and its square
         assert!(f.mean()[0][0] > 1e19);
         assert_eq!(f.mean()[0][1], 1.0);
-    }
-}
-
-/// The layers an error estimate reads (docs/error.md): the mean image, each pixel's variance of
-/// the mean, and the kernel bias with its variance where there is one.
-pub(crate) struct ErrorLayers<'a> {
-    pub mean: &'a [[f32; 3]],
-    pub variance: &'a [[f32; 3]],
-    pub bias: Option<&'a [[f32; 3]]>,
-    pub bias_variance: Option<&'a [[f32; 3]]>,
-    /// Iterations averaged (at least 2).
-    pub iterations: u64,
-    /// (width, height).
-    pub size: (u32, u32),
-}
-
-impl ErrorLayers<'_> {
-    /// [`Film::error_estimate`] on these layers.
-    pub fn estimate(
-        &self,
-        confidence: f64,
-        region: Option<crate::region::Region>,
-    ) -> Option<ErrorEstimate> {
-        let (mean, variance) = (self.mean, self.variance);
-        let (bias, bias_var) = (self.bias, self.bias_variance);
-        let n = self.iterations as f64;
-        let (mut sum, mut v, mut v2, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-        let (mut b, mut b2) = (0.0f64, 0.0f64);
-        let (w, h) = self.size;
-        let pixel_variance = |i: usize| variance[i].iter().map(|&c| c as f64).sum::<f64>();
-        let region = region.unwrap_or(crate::region::Region::whole(w, h));
-        for i in region.counted(w, h, pixel_variance) {
-            let (m, var) = (mean[i], variance[i]);
-            let (mut pixel, mut pixel_b) = (0.0, 0.0);
-            for c in 0..3 {
-                sum += m[c] as f64;
-                pixel += var[c] as f64;
-                count += 1.0;
-                if let (Some(bias), Some(w)) = (&bias, &bias_var) {
-                    let (bb, w) = (bias[i][c] as f64, w[i][c] as f64);
-                    b += bb * bb - w;
-                    // Sampling variance of b² − w: 4 b² w + 2 w² (Gaussian b).
-                    pixel_b += (4.0 * (bb * bb - w).max(0.0) * w + 2.0 * w * w).sqrt();
-                }
-            }
-            v += pixel;
-            // A pixel's channels come from the same paths: their variance estimates' errors are
-            // taken as fully correlated (the sampling s.d. of the three add).
-            v2 += pixel * pixel;
-            b2 += pixel_b * pixel_b;
-        }
-        let (mean, v_mean) = (sum / count, v / count);
-        let b_mean = (b / count).max(0.0);
-        if mean.is_nan() || mean < 0.0 {
-            return None;
-        }
-        if mean == 0.0 && v_mean == 0.0 && b_mean == 0.0 {
-            // A black image without noise: nothing left to estimate (and a render stopping on a
-            // target must stop).
-            return Some(ErrorEstimate { relative_rmse: 0.0, upper: 0.0, confidence });
-        }
-        if mean == 0.0 {
-            return None;
-        }
-        let se = ((2.0 * v2 / (n - 1.0)) + b2).sqrt() / count;
-        let z = crate::math::normal_quantile(confidence.clamp(1e-9, 1.0 - 1e-9));
-        let total = v_mean + b_mean;
-        Some(ErrorEstimate {
-            relative_rmse: total.sqrt() / mean,
-            upper: (total + z * se).max(0.0).sqrt() / mean,
-            confidence,
-        })
     }
 }

@@ -428,10 +428,8 @@ mod error_tests {
                 let bias: Vec<_> = (0..(w * h) as usize).map(|i| value(i, 1) * 0.01).collect();
                 film.add_with_bias(&image, &bias);
             }
-            let mut info_settings = RenderSettings::default();
-            info_settings.target_confidence = 0.9;
             let info = RenderInfo {
-                settings: info_settings,
+                settings: RenderSettings { target_confidence: 0.9, ..RenderSettings::default() },
                 first_iteration: 1,
                 iterations: film.iterations(),
                 light_paths: 0,

@@ -15,7 +15,7 @@ use crate::progress::Status;
 use crate::render::{Start, render_partial};
 use crate::settings::{RenderOptions, RenderSettings};
 use crate::{Error, Scene};
-use convert::{SceneError, scene_error, to_py_err, to_python};
+use convert::{SceneError, scene_error, settings_dict, to_py_err};
 use image::{PyImage, PyPartial, PyProgress};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
@@ -34,18 +34,8 @@ const CALLBACK_EVERY: Duration = Duration::from_millis(250);
 #[pyclass(module = "haze", name = "Scene", frozen)]
 struct PyScene {
     scene: Arc<Scene>,
-}
-
-/// A scene's settings (or a render's) as a dict of the `[render]` keys; unset ones are None.
-fn settings_dict<'py>(py: Python<'py>, s: &RenderSettings) -> PyResult<Bound<'py, PyAny>> {
-    let value = toml::Value::try_from(s).map_err(|e| scene_error(format!("settings: {e}")))?;
-    let d = to_python(py, &value)?.cast_into::<PyDict>()?;
-    for key in RenderOptions::KEYS {
-        if !d.contains(key)? {
-            d.set_item(key, py.None())?;
-        }
-    }
-    Ok(d.into_any())
+    /// The scene file, for a scene loaded from one.
+    file: Option<PathBuf>,
 }
 
 /// An error of a scene given as a dict: without line numbers, which would count lines of the
@@ -67,7 +57,7 @@ impl PyScene {
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let scene = py.detach(|| Scene::load(&path)).map_err(to_py_err)?;
-        Ok(Self { scene: Arc::new(scene) })
+        Ok(Self { scene: Arc::new(scene), file: Some(path) })
     }
 
     /// A scene from the text of a scene file; relative paths resolve against `base_dir` (the
@@ -83,7 +73,7 @@ impl PyScene {
         let base = base_dir.unwrap_or_else(|| PathBuf::from("."));
         let scene =
             py.detach(|| Scene::from_toml(text, Path::new(name), &base)).map_err(to_py_err)?;
-        Ok(Self { scene: Arc::new(scene) })
+        Ok(Self { scene: Arc::new(scene), file: None })
     }
 
     /// A scene from a dict with the keys of a scene file (`camera`, `render`, `materials`,
@@ -102,7 +92,7 @@ impl PyScene {
         let scene = py
             .detach(|| Scene::from_toml(&text, Path::new("<dict>"), &base))
             .map_err(|e| to_py_err(without_line(e)))?;
-        Ok(Self { scene: Arc::new(scene) })
+        Ok(Self { scene: Arc::new(scene), file: None })
     }
 
     /// (width, height) of the camera's image in pixels.
@@ -121,7 +111,7 @@ impl PyScene {
     /// The scene file's path, or None for a scene made from text or a dict.
     #[getter]
     fn path(&self) -> Option<PathBuf> {
-        self.scene.source.clone().filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        self.file.clone()
     }
 
     fn __repr__(&self) -> String {

@@ -3,6 +3,7 @@
 //! Python exceptions.
 
 use crate::Error;
+use crate::settings::{RenderOptions, RenderSettings};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
@@ -119,4 +120,19 @@ pub(super) fn to_python<'py>(py: Python<'py>, v: &toml::Value) -> PyResult<Bound
             d.into_any()
         }
     })
+}
+
+/// A scene's settings (or a render's) as a dict of the `[render]` keys; unset ones are None.
+pub(super) fn settings_dict<'py>(
+    py: Python<'py>,
+    s: &RenderSettings,
+) -> PyResult<Bound<'py, PyAny>> {
+    let value = toml::Value::try_from(s).map_err(|e| scene_error(format!("settings: {e}")))?;
+    let d = to_python(py, &value)?.cast_into::<PyDict>()?;
+    for key in RenderOptions::KEYS {
+        if !d.contains(key)? {
+            d.set_item(key, py.None())?;
+        }
+    }
+    Ok(d.into_any())
 }

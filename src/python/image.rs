@@ -189,7 +189,7 @@ impl PyImage {
     /// The render's settings, as a dict of the scene file's `[render]` keys.
     #[getter]
     fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        super::settings_dict(py, &self.info.settings)
+        super::convert::settings_dict(py, &self.info.settings)
     }
 
     /// Writes the image: OpenEXR with its error layers and a PNG preview beside it (as the

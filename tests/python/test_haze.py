@@ -52,7 +52,7 @@ def test_file_text_and_dict_give_the_same_image():
     assert images[0].shape == (48, 48, 3) and images[0].mean() > 0
     assert np.array_equal(images[0], images[1])
     whole = haze.Scene.load(FOG)
-    assert whole.resolution == (384, 384) and whole.path == FOG
+    assert whole.resolution == (384, 384) and whole.path == FOG and from_text.path is None
     assert whole.settings["photons"] == 200000 and "merges" in whole.settings
 
 
