@@ -355,6 +355,13 @@ fn render(
     progress: Option<Py<PyAny>>,
     settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Py<PyAny>> {
+    if let Some(p) = &progress
+        && !p.bind(py).is_callable()
+    {
+        return Err(pyo3::exceptions::PyTypeError::new_err(
+            "progress: must be callable (it receives a haze.Progress)",
+        ));
+    }
     let options = match settings {
         Some(d) => d.copy()?,
         None => PyDict::new(py),

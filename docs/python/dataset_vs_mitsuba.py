@@ -90,7 +90,7 @@ def main():
     p.add_argument("--reference-seconds", type=float, default=60)
     p.add_argument("--calibration-spp", type=int, default=64)
     p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--integrator", default="path", help="haze's integrator for the dataset")
+    p.add_argument("--integrator", default="combined", help="haze's integrator for the dataset (dataset.py's)")
     p.add_argument("--photons", type=int, default=20000)
     p.add_argument("--max-iterations", type=int, default=4000)
     args = p.parse_args()
@@ -120,6 +120,8 @@ def main():
                 haze_err.append(rel_rmse(img.rgb, *refs[i]))
                 print(f"haze view {i}: {img.iterations} iterations, {img.elapsed:.2f} s, estimated "
                       f"{100 * img.error:.2f} %, measured {100 * haze_err[-1]:.2f} %", flush=True)
+            elif (i + 1) % 10 == 0:
+                print(f"haze: {i + 1} images in {time.perf_counter() - start:.0f} s", flush=True)
         haze_minutes = (time.perf_counter() - start) / 60
 
         m = Mitsuba(path, args.size, args.threads, tmp)
@@ -136,6 +138,8 @@ def main():
         start = time.perf_counter()
         for i, v in enumerate(views):
             m.render(v, spp, i)
+            if (i + 1) % 10 == 0:
+                print(f"mitsuba: {i + 1} images in {time.perf_counter() - start:.0f} s", flush=True)
         mitsuba_minutes = (time.perf_counter() - start) / 60
 
     print(f"\n{args.count} images of {args.size}x{args.size}, {args.threads} threads:")

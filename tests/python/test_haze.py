@@ -96,6 +96,11 @@ def test_errors_name_the_key_and_line():
             haze.render(scene, **kwargs)
 
 
+def test_progress_must_be_callable():
+    with pytest.raises(TypeError, match="progress: must be callable"):
+        haze.render(haze.Scene.from_dict(small_fog()), iterations=2, progress=3)
+
+
 def test_layers_are_the_renderers_buffers():
     image = haze.render(haze.Scene.from_dict(small_fog()), iterations=3, integrator="photons", **FAST)
     addresses = image._buffer_addresses()
