@@ -2,13 +2,15 @@
 //! side, its stub and its documentation are in `src/python/haze/`, the guide is
 //! docs/python.md).
 //!
-//! A render runs on a worker thread with the GIL released; the calling thread waits for it,
-//! taking the GIL every [`POLL`] to look for Ctrl-C (`KeyboardInterrupt`: the render stops at the
-//! end of its iteration) and to call the progress callback, at most every [`CALLBACK_EVERY`].
+//! A render runs as a job of a worker pool (`pools.rs`) with the GIL released; the calling
+//! thread waits for it, taking the GIL every [`POLL`] to look for Ctrl-C (`KeyboardInterrupt`:
+//! the render stops at once, dropping the iteration under way) and to call the progress
+//! callback, at most every [`CALLBACK_EVERY`].
 //! Layers reach NumPy without a copy: each array owns the buffer the renderer filled.
 
 mod convert;
 mod image;
+mod pools;
 
 use crate::partial::Partial;
 use crate::progress::Status;
@@ -17,12 +19,13 @@ use crate::settings::{RenderOptions, RenderSettings};
 use crate::{Error, Scene};
 use convert::{SceneError, scene_error, settings_dict, to_py_err};
 use image::{PyImage, PyPartial, PyProgress};
+use pools::{off_gil, pool};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyRange};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, mpsc};
+use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
 /// How often the waiting thread looks for Ctrl-C.
@@ -56,7 +59,7 @@ impl PyScene {
     /// file's directory.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let scene = py.detach(|| Scene::load(&path)).map_err(to_py_err)?;
+        let scene = off_gil(py, None, || Scene::load(&path))?.map_err(to_py_err)?;
         Ok(Self { scene: Arc::new(scene), file: Some(path) })
     }
 
@@ -71,8 +74,8 @@ impl PyScene {
         name: &str,
     ) -> PyResult<Self> {
         let base = base_dir.unwrap_or_else(|| PathBuf::from("."));
-        let scene =
-            py.detach(|| Scene::from_toml(text, Path::new(name), &base)).map_err(to_py_err)?;
+        let scene = off_gil(py, None, || Scene::from_toml(text, Path::new(name), &base))?
+            .map_err(to_py_err)?;
         Ok(Self { scene: Arc::new(scene), file: None })
     }
 
@@ -89,8 +92,7 @@ impl PyScene {
         let table = convert::table(scene, "")?;
         let text = toml::to_string(&table).map_err(|e| scene_error(format!("<dict>: {e}")))?;
         let base = base_dir.unwrap_or_else(|| PathBuf::from("."));
-        let scene = py
-            .detach(|| Scene::from_toml(&text, Path::new("<dict>"), &base))
+        let scene = off_gil(py, None, || Scene::from_toml(&text, Path::new("<dict>"), &base))?
             .map_err(|e| to_py_err(without_line(e)))?;
         Ok(Self { scene: Arc::new(scene), file: None })
     }
@@ -180,30 +182,6 @@ fn read_options(table: &toml::Table) -> PyResult<RenderOptions> {
     })
 }
 
-/// The worker pools, one per thread count asked for (0: rayon's default), kept for the next
-/// render.
-fn pool(threads: Option<usize>) -> PyResult<Arc<rayon::ThreadPool>> {
-    static POOLS: Mutex<Vec<(usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let n = threads.unwrap_or(0);
-    if threads.is_some() && !(1..=8 * cores).contains(&n) {
-        return Err(scene_error(format!(
-            "threads: must lie in 1..={} (8 per core on this machine), got {n}",
-            8 * cores
-        )));
-    }
-    let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some((_, p)) = pools.iter().find(|(k, _)| *k == n) {
-        return Ok(p.clone());
-    }
-    let p = rayon::ThreadPoolBuilder::new().num_threads(n).build().map_err(|e| {
-        pyo3::exceptions::PyOSError::new_err(format!("cannot start worker threads: {e}"))
-    })?;
-    let p = Arc::new(p);
-    pools.push((n, p.clone()));
-    Ok(p)
-}
-
 /// What the worker thread tells the waiting one.
 enum Report {
     Progress(PyProgress),
@@ -279,6 +257,8 @@ fn wait(
 ) -> (crate::Result<Partial>, Option<PyErr>) {
     let mut raised: Option<PyErr> = None;
     let mut latest: Option<PyProgress> = None;
+    // The last error estimate seen, carried into the reports made between two estimates.
+    let mut last_error: Option<f64> = None;
     let mut called = Instant::now() - CALLBACK_EVERY;
     loop {
         let done = match rx.recv_timeout(POLL) {
@@ -289,8 +269,8 @@ fn wait(
                 Some(*result)
             }
             Ok(Report::Progress(p)) => {
-                let error = p.error.or(latest.as_ref().and_then(|l| l.error));
-                latest = Some(PyProgress { error, ..p });
+                last_error = p.error.or(last_error);
+                latest = Some(PyProgress { error: last_error, ..p });
                 None
             }
             Err(mpsc::RecvTimeoutError::Timeout) => None,
@@ -335,12 +315,15 @@ fn wait(
 /// seed: the seed of every random stream; the same scene, seed and iterations give the same
 ///     image whatever the thread count.
 /// progress: called with a haze.Progress from this thread, at most four times a second and
-///     once at the end; an exception it raises stops the render and propagates.
+///     once at the end.
 ///
 /// Returns a haze.Image (a haze.Partial for a range). Releases the GIL while rendering. Ctrl-C
-/// stops at the end of the current iteration and raises KeyboardInterrupt with the finished
-/// iterations as its `partial` attribute (a haze.Partial, or None). Raises haze.SceneError for
-/// a bad setting.
+/// (seen when called from the main thread) stops the render at once, dropping the iteration
+/// under way, and raises KeyboardInterrupt; an exception raised by `progress` stops it the same
+/// way and propagates. Either exception carries the finished iterations as its `partial`
+/// attribute (a haze.Partial, or None) and their number as `iterations`. Raises
+/// haze.SceneError for a bad setting (a keyword given as None leaves the scene's setting), and
+/// RuntimeError when a time limit ends before the first iteration.
 #[pyfunction]
 #[pyo3(signature = (scene, iterations = None, time = None, target_error = None, threads = None, seed = None, progress = None, **settings))]
 #[allow(clippy::too_many_arguments)]
@@ -355,17 +338,18 @@ fn render(
     progress: Option<Py<PyAny>>,
     settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Py<PyAny>> {
-    if let Some(p) = &progress
-        && !p.bind(py).is_callable()
-    {
+    if progress.as_ref().is_some_and(|p| !p.bind(py).is_callable()) {
         return Err(pyo3::exceptions::PyTypeError::new_err(
             "progress: must be callable (it receives a haze.Progress)",
         ));
     }
-    let options = match settings {
-        Some(d) => d.copy()?,
-        None => PyDict::new(py),
-    };
+    // A keyword given as None means the scene's setting, as if it were left out.
+    let options = PyDict::new(py);
+    for (k, v) in settings.map(|d| d.iter()).into_iter().flatten() {
+        if !v.is_none() {
+            options.set_item(k, v)?;
+        }
+    }
     let range = iterations_option(&options, parse_iterations(iterations)?)?;
     for (key, value) in [("time_limit", time), ("target_error", target_error)] {
         if let Some(v) = value {
@@ -382,11 +366,18 @@ fn render(
     if let Some(e) = raised {
         return Err(interrupted(py, e, part));
     }
-    if range.is_some() {
-        return Ok(Py::new(py, PyPartial { part })?.into_any());
+    if part.info.iterations == 0 {
+        return Err(pyo3::exceptions::PyRuntimeError::new_err(format!(
+            "the time limit ({} s) ended before the first iteration finished (allow more time, \
+             or lower the photons or the resolution)",
+            part.info.settings.time_limit.unwrap_or(0.0)
+        )));
     }
-    let image = PyPartial { part }.image_for_render(py)?;
-    Ok(Py::new(py, image)?.into_any())
+    let part = PyPartial { part };
+    if range.is_some() {
+        return Ok(Py::new(py, part)?.into_any());
+    }
+    Ok(Py::new(py, part.image_on(py, threads)?)?.into_any())
 }
 
 /// Sets the `iterations` option of a render call; returns the range, for a partial render.
@@ -398,19 +389,21 @@ fn iterations_option(options: &Bound<'_, PyDict>, it: Iterations) -> PyResult<Op
     }
 }
 
-/// The error that stopped a render. A `KeyboardInterrupt` carries the iterations finished as
-/// its `partial` attribute (a `haze.Partial`, or None if none finished), so no finished work is
-/// lost.
+/// The error that stopped a render (Ctrl-C, or an exception of the progress callback), with
+/// the iterations finished as its `partial` attribute (a `haze.Partial`, or None if none
+/// finished) and their number as `iterations`, so that no finished work is lost.
 fn interrupted(py: Python<'_>, e: PyErr, part: Partial) -> PyErr {
-    if !e.is_instance_of::<PyKeyboardInterrupt>(py) {
-        return e;
-    }
     let finished = part.info.iterations;
-    let e = PyKeyboardInterrupt::new_err(format!(
-        "render stopped after {finished} iterations (the exception's `partial` holds them)"
-    ));
+    let e = if e.is_instance_of::<PyKeyboardInterrupt>(py) {
+        PyKeyboardInterrupt::new_err(format!(
+            "render stopped after {finished} iterations (the exception's `partial` holds them)"
+        ))
+    } else {
+        e
+    };
     let partial =
         if finished > 0 { Py::new(py, PyPartial { part }).ok().map(Py::into_any) } else { None };
+    // An exception type that refuses attributes keeps its message alone.
     let _ = e.value(py).setattr("partial", partial);
     let _ = e.value(py).setattr("iterations", finished);
     e
@@ -420,7 +413,7 @@ fn interrupted(py: Python<'_>, e: PyErr, part: Partial) -> PyErr {
 #[pyfunction]
 fn merge(py: Python<'_>, parts: Vec<Bound<'_, PyAny>>) -> PyResult<PyImage> {
     let merged = PyPartial::merge_parts(py, parts)?;
-    merged.image_for_render(py)
+    merged.image_on(py, None)
 }
 
 /// The native part of the `haze` package.

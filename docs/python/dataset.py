@@ -58,7 +58,7 @@ def main(argv=None):
     p.add_argument("--count", type=int, default=100, help="images to render")
     p.add_argument("--size", type=int, default=128, help="image width and height in pixels")
     p.add_argument("--target-error", type=float, default=0.05, help="estimated relative error per image")
-    p.add_argument("--max-iterations", type=int, default=400, help="bound on each image's iterations")
+    p.add_argument("--max-iterations", type=int, default=4000, help="bound on each image's iterations")
     p.add_argument("--photons", type=int, default=20000, help="light paths per iteration")
     p.add_argument("--integrator", default="combined", help="haze's integrator")
     p.add_argument("--threads", type=int, default=None, help="worker threads (default: every core)")
@@ -74,7 +74,7 @@ def main(argv=None):
         tqdm = None
     items = list(enumerate(views(args.count, args.seed)))
     bar = tqdm(items, unit="image") if tqdm else items
-    labels = []
+    labels, missed = [], []
     start = time.perf_counter()
     for i, (sun, scale) in bar:
         scene = cloud_scene(sun, scale, args.size)
@@ -87,7 +87,8 @@ def main(argv=None):
             threads=args.threads,
             seed=i,
         )
-        np.savez(args.out / f"{i:04d}.npz", rgb=image.rgb, variance=image.variance, bias=image.bias)
+        layers = {"rgb": image.rgb, "variance": image.variance, "bias": image.bias}
+        np.savez(args.out / f"{i:04d}.npz", **{k: v for k, v in layers.items() if v is not None})
         if args.exr:
             image.write(args.out / f"{i:04d}.exr")
         labels.append(
@@ -100,11 +101,17 @@ def main(argv=None):
                 "error": image.error,
             }
         )
+        error = "-" if image.error is None else f"{100 * image.error:.2f} %"
+        if image.error is None or image.error > args.target_error:
+            missed.append(i)
         if tqdm:
-            bar.set_postfix(error=f"{100 * image.error:.1f}%")
+            bar.set_postfix(error=error)
         else:
-            print(f"image {i + 1}/{args.count}: {image.iterations} iterations, error {100 * image.error:.2f} %")
+            print(f"image {i + 1}/{args.count}: {image.iterations} iterations, error {error}")
     (args.out / "labels.json").write_text(json.dumps(labels, indent=1))
+    if missed:
+        print(f"warning: {len(missed)} images stopped at --max-iterations above the target error: {missed}",
+              file=sys.stderr)
     minutes = (time.perf_counter() - start) / 60
     print(f"{args.count} images in {60 * minutes:.1f} s: {args.count / minutes:.1f} images per minute", file=sys.stderr)
     return labels

@@ -38,11 +38,19 @@ fn child(parent: &str, key: &str) -> String {
     if parent.is_empty() { key.to_string() } else { format!("{parent}.{key}") }
 }
 
-/// A Python value as a TOML value; `key` (its dotted path) names it in errors. Takes what a
+/// Deepest nesting of dicts and lists taken (a scene file nests four deep).
+const MAX_DEPTH: usize = 32;
+
+/// A Python value, at nesting `depth`, as a TOML value; `key` (its dotted path) names it in errors. Takes what a
 /// scene file holds — booleans, integers, floats, strings, lists, tuples and dicts with string
 /// keys — and what stands for them: NumPy arrays and scalars (through `tolist`), path-like
 /// objects (as strings) and objects with `__index__` or `__float__`.
-pub(super) fn to_toml(v: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+fn value(v: &Bound<'_, PyAny>, key: &str, depth: usize) -> PyResult<toml::Value> {
+    if depth > MAX_DEPTH {
+        return Err(scene_error(format!(
+            "{key}: nested more than {MAX_DEPTH} deep (a dict or list that contains itself?)"
+        )));
+    }
     if v.is_instance_of::<PyBool>() {
         return Ok(toml::Value::Boolean(v.extract()?));
     }
@@ -58,24 +66,26 @@ pub(super) fn to_toml(v: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> 
         return Ok(toml::Value::String(s.to_str()?.to_string()));
     }
     if let Ok(d) = v.cast::<PyDict>() {
-        return table(d, key).map(toml::Value::Table);
+        return table_at(d, key, depth + 1).map(toml::Value::Table);
     }
     if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
-        let items =
-            v.try_iter()?.enumerate().map(|(i, item)| to_toml(&item?, &format!("{key}[{i}]")));
+        let items = v
+            .try_iter()?
+            .enumerate()
+            .map(|(i, item)| value(&item?, &format!("{key}[{i}]"), depth + 1));
         return items.collect::<PyResult<Vec<_>>>().map(toml::Value::Array);
     }
     if v.hasattr("tolist")? {
-        return to_toml(&v.call_method0("tolist")?, key);
+        return value(&v.call_method0("tolist")?, key, depth + 1);
     }
     if v.hasattr("__fspath__")? {
-        return to_toml(&v.call_method0("__fspath__")?, key);
+        return value(&v.call_method0("__fspath__")?, key, depth + 1);
     }
     if v.hasattr("__index__")? {
-        return to_toml(&v.call_method0("__index__")?, key);
+        return value(&v.call_method0("__index__")?, key, depth + 1);
     }
     if v.hasattr("__float__")? {
-        return to_toml(&v.call_method0("__float__")?, key);
+        return value(&v.call_method0("__float__")?, key, depth + 1);
     }
     let kind = v.get_type().name()?;
     let hint = if v.is_none() { " (leave the key out instead)" } else { "" };
@@ -86,6 +96,11 @@ pub(super) fn to_toml(v: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> 
 
 /// A Python dict with string keys as a TOML table; `key` is the dict's own dotted path.
 pub(super) fn table(d: &Bound<'_, PyDict>, key: &str) -> PyResult<toml::Table> {
+    table_at(d, key, 0)
+}
+
+/// [`table`] at nesting `depth`.
+fn table_at(d: &Bound<'_, PyDict>, key: &str, depth: usize) -> PyResult<toml::Table> {
     let mut t = toml::Table::new();
     for (k, v) in d.iter() {
         let name: String = k.extract().map_err(|_| {
@@ -94,8 +109,8 @@ pub(super) fn table(d: &Bound<'_, PyDict>, key: &str) -> PyResult<toml::Table> {
                 if key.is_empty() { "scene" } else { key }
             ))
         })?;
-        let value = to_toml(&v, &child(key, &name))?;
-        t.insert(name, value);
+        let v = value(&v, &child(key, &name), depth)?;
+        t.insert(name, v);
     }
     Ok(t)
 }

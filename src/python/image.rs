@@ -2,6 +2,7 @@
 //! own buffers (no copy), a partial render for splitting work, and the progress a callback sees.
 
 use super::convert::{scene_error, to_py_err};
+use super::pools::off_gil;
 use crate::film::ErrorEstimate;
 use crate::output::{Image, RenderInfo};
 use crate::partial::Partial;
@@ -49,6 +50,24 @@ fn pixels(
     Ok(values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
 }
 
+/// An image's figures: its relative noise, kernel bias and error estimate.
+struct Summary {
+    relative_noise: Option<f64>,
+    kernel_bias: Option<(f64, Option<f64>)>,
+    error: Option<ErrorEstimate>,
+}
+
+impl Summary {
+    fn of(image: &Image) -> Self {
+        let s = &image.info.settings;
+        Summary {
+            relative_noise: image.relative_noise(None),
+            kernel_bias: image.relative_bias(None),
+            error: image.error_estimate(s.target_confidence, s.target_region),
+        }
+    }
+}
+
 /// A rendered image (see the package's documentation).
 #[pyclass(module = "haze", name = "Image", frozen)]
 pub struct PyImage {
@@ -67,13 +86,9 @@ pub struct PyImage {
 }
 
 impl PyImage {
-    /// The image's layers handed to NumPy, with its summary.
-    pub(super) fn new(py: Python<'_>, image: Image) -> PyResult<Self> {
+    /// The image's layers handed to NumPy, with its summary (made off the GIL: [`Summary::of`]).
+    fn new(py: Python<'_>, image: Image, summary: Summary) -> PyResult<Self> {
         let (w, h) = (image.width, image.height);
-        let s = &image.info.settings;
-        let error = image.error_estimate(s.target_confidence, s.target_region);
-        let relative_noise = image.relative_noise(None);
-        let kernel_bias = image.relative_bias(None);
         let (rgb, a0) = layer(py, image.pixels, w, h)?;
         let variance = image.variance.map(|v| layer(py, v, w, h)).transpose()?;
         let bias = image.bias.map(|v| layer(py, v, w, h)).transpose()?;
@@ -88,9 +103,9 @@ impl PyImage {
             info: image.info,
             width: w,
             height: h,
-            relative_noise,
-            kernel_bias,
-            error,
+            relative_noise: summary.relative_noise,
+            kernel_bias: summary.kernel_bias,
+            error: summary.error,
             addresses,
         })
     }
@@ -198,7 +213,7 @@ impl PyImage {
     #[pyo3(signature = (path, exposure = 1.0))]
     fn write(&self, py: Python<'_>, path: PathBuf, exposure: f32) -> PyResult<Vec<PathBuf>> {
         let image = self.to_image(py)?;
-        py.detach(|| image.write(&path, exposure)).map_err(to_py_err)
+        off_gil(py, None, || image.write(&path, exposure))?.map_err(to_py_err)
     }
 
     /// The addresses of the buffers the renderer produced for rgb, variance and bias (0 where
@@ -236,17 +251,22 @@ impl PyPartial {
                             "haze.merge: parts must be haze.Partial objects or paths to .hpr files",
                         )
                     })?;
-                    list.push(py.detach(|| Partial::read(&path)).map_err(to_py_err)?);
+                    list.push(off_gil(py, None, || Partial::read(&path))?.map_err(to_py_err)?);
                 }
             }
         }
-        let part = py.detach(|| Partial::merge(list)).map_err(scene_error)?;
+        let part = off_gil(py, None, || Partial::merge(list))?.map_err(scene_error)?;
         Ok(Self { part })
     }
 
-    /// The image of these iterations.
-    pub(super) fn image_for_render(&self, py: Python<'_>) -> PyResult<PyImage> {
-        PyImage::new(py, self.part.image())
+    /// The image of these iterations, made on the pool of `threads` workers off the GIL.
+    pub(super) fn image_on(&self, py: Python<'_>, threads: Option<usize>) -> PyResult<PyImage> {
+        let (image, summary) = off_gil(py, threads, || {
+            let image = self.part.image();
+            let summary = Summary::of(&image);
+            (image, summary)
+        })?;
+        PyImage::new(py, image, summary)
     }
 }
 
@@ -255,7 +275,7 @@ impl PyPartial {
     /// Reads a partial render (`.hpr`) written by `Partial.write` or `haze render A..B`.
     #[staticmethod]
     fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        py.detach(|| Partial::read(&path)).map(|part| Self { part }).map_err(to_py_err)
+        off_gil(py, None, || Partial::read(&path))?.map(|part| Self { part }).map_err(to_py_err)
     }
 
     /// Merges partial renders of one scene (Partial objects or `.hpr` paths) into one partial
@@ -267,12 +287,12 @@ impl PyPartial {
 
     /// The image of these iterations.
     fn image(&self, py: Python<'_>) -> PyResult<PyImage> {
-        self.image_for_render(py)
+        self.image_on(py, None)
     }
 
     /// Writes the partial render (`.hpr`), for `haze merge` or `Partial.read`.
     fn write(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        py.detach(|| self.part.write(&path)).map_err(to_py_err)
+        off_gil(py, None, || self.part.write(&path))?.map_err(to_py_err)
     }
 
     /// The first iteration's index.

@@ -176,6 +176,9 @@ def test_progress_is_called_from_this_thread_a_few_times_a_second():
     assert np.all(gaps[:-1] >= 0.24), gaps
     last = calls[-1][1]
     assert (last.iteration, last.total) == (image.iterations, 30)
+    errors = [p.error for _, p, _ in calls]
+    first = next(i for i, e in enumerate(errors) if e is not None)
+    assert all(e is not None for e in errors[first:]), errors
     assert last.error == pytest.approx(image.error)
 
 
@@ -184,9 +187,11 @@ def test_an_exception_in_progress_stops_the_render():
         raise RuntimeError("stop here")
 
     start = time.perf_counter()
-    with pytest.raises(RuntimeError, match="stop here"):
+    with pytest.raises(RuntimeError, match="stop here") as e:
         haze.render(haze.Scene.from_dict(fog_dict(96)), time=60, progress=progress, **FAST)
     assert time.perf_counter() - start < 30
+    # The finished iterations travel with the exception.
+    assert e.value.iterations >= 1 and e.value.partial.iterations == e.value.iterations
 
 
 def test_ctrl_c_stops_the_render_and_keeps_the_finished_iterations():
@@ -202,6 +207,24 @@ def test_ctrl_c_stops_the_render_and_keeps_the_finished_iterations():
     # The finished iterations are those of an uninterrupted render of as many.
     whole = haze.render(scene, iterations=part.iterations, seed=2, **FAST)
     assert np.array_equal(part.image().rgb, whole.rgb)
+
+
+def test_a_time_limit_before_the_first_iteration_is_an_error():
+    with pytest.raises(RuntimeError, match="before the first iteration finished"):
+        haze.render(haze.Scene.from_dict(fog_dict(192)), time=0.001, photons=500000)
+
+
+def test_none_keywords_leave_the_scenes_settings():
+    scene = haze.Scene.from_dict(small_fog())
+    a = haze.render(scene, iterations=2, radius=None, kernel=None, **FAST).rgb
+    assert np.array_equal(a, haze.render(scene, iterations=2, **FAST).rgb)
+
+
+def test_a_dict_that_contains_itself_is_refused():
+    d = small_fog()
+    d["camera"]["again"] = d
+    with pytest.raises(haze.SceneError, match="nested more than"):
+        haze.Scene.from_dict(d)
 
 
 def test_target_error_stops_early():
@@ -251,3 +274,16 @@ def test_the_readme_script_runs_as_printed(tmp_path):
         (tmp_path / name).symlink_to(REPO / name)
     subprocess.run([sys.executable, "-c", script], cwd=tmp_path, check=True)
     assert (tmp_path / "cornell-fog.exr").exists() and (tmp_path / "cornell-fog.png").exists()
+
+
+def _render_small(seed):
+    return haze.render(haze.Scene.from_dict(small_fog()), iterations=2, seed=seed, **FAST).rgb
+
+
+def test_a_forked_child_renders():
+    import multiprocessing
+
+    here = _render_small(4)  # the parent's pools exist before the fork
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        there = pool.apply_async(_render_small, (4,)).get(timeout=120)
+    assert np.array_equal(here, there)

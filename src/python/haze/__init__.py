@@ -15,9 +15,9 @@ files, the line. `render` takes the scene's `[render]` settings and any of them 
 arguments (`photons=`, `integrator=`, `alpha=`, ...); `iterations=range(a, b)` renders a range of
 iterations as a `Partial`, and `merge` joins the parts of one render exactly.
 
-Rendering releases the GIL. Ctrl-C stops a render at the end of its current iteration and
-raises `KeyboardInterrupt`, whose `partial` attribute holds the iterations finished (a
-`Partial`, or None). A `progress` callback receives a `Progress` after iterations, from the
+Rendering releases the GIL. Ctrl-C stops a render at once (the iteration under way is dropped)
+and raises `KeyboardInterrupt`, whose `partial` attribute holds the iterations finished (a
+`Partial`, or None); so does an exception raised by the progress callback. A `progress` callback receives a `Progress` after iterations, from the
 thread that called `render`, at most four times a second (and once at the end).
 
 The guide is docs/python.md in the repository.
