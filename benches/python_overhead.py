@@ -96,9 +96,12 @@ def main():
     p.add_argument("--turns", type=int, default=5)
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--only", default="", help="run the cases whose name contains this")
     args = p.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         for name, path, iterations, settings, more in cases(tmp):
+            if args.only not in name:
+                continue
             if "128x128" in name:
                 path = small_copy(path, tmp)
             scene = haze.Scene.load(path)
