@@ -287,3 +287,13 @@ def test_a_forked_child_renders():
     with multiprocessing.get_context("fork").Pool(1) as pool:
         there = pool.apply_async(_render_small, (4,)).get(timeout=120)
     assert np.array_equal(here, there)
+
+
+def test_the_stub_parses_and_declares_every_public_name():
+    import ast
+
+    stub = pathlib.Path(haze.__file__).with_name("__init__.pyi")
+    tree = ast.parse(stub.read_text())
+    declared = {n.name for n in tree.body if isinstance(n, (ast.ClassDef, ast.FunctionDef))}
+    declared |= {t.id for n in tree.body if isinstance(n, ast.AnnAssign) for t in [n.target]}
+    assert set(haze.__all__) <= declared, set(haze.__all__) - declared
