@@ -151,8 +151,8 @@ pub use partial::Partial;
 pub use photon::guide::MIN_GAIN as PILOT_MIN_GAIN;
 pub use plan::MIN_RADIUS_FRACTION;
 pub use render::{
-    MIN_TARGET_ITERATIONS, PILOT_PATHS, PhotonUsage, Start, memory_estimate, photon_usage, render,
-    render_partial,
+    MIN_TARGET_ITERATIONS, PILOT_PATHS, PhotonUsage, Start, max_threads, memory_estimate,
+    photon_usage, render, render_partial,
 };
 pub use scene::{Scene, SceneBuilder};
 pub use settings::{RenderOptions, RenderSettings};

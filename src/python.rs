@@ -12,6 +12,7 @@ mod convert;
 mod image;
 mod pools;
 
+use crate::output::RenderInfo;
 use crate::partial::Partial;
 use crate::progress::Status;
 use crate::render::{Start, render_partial};
@@ -157,10 +158,9 @@ fn parse_iterations(v: Option<&Bound<'_, PyAny>>) -> PyResult<Iterations> {
     }
 }
 
-/// The settings of a render call: the scene's, then the keyword arguments.
-fn render_settings(scene: &Scene, options: &Bound<'_, PyDict>) -> PyResult<RenderSettings> {
-    let table = convert::table(options, "")?;
-    let options = read_options(&table)?;
+/// The settings of a render call: the scene's, then the keyword arguments as a `[render]` table.
+fn render_settings(scene: &Scene, table: &toml::Table) -> PyResult<RenderSettings> {
+    let options = read_options(table)?;
     options.check_pairs().map_err(|e| scene_error(format!("render setting {e}")))?;
     let settings = scene.settings.with(&options);
     settings.validate().map_err(|e| scene_error(format!("render setting {e}")))?;
@@ -188,15 +188,15 @@ enum Report {
     Done(Box<crate::Result<Partial>>),
 }
 
-/// The progress a callback sees, from a render's status; the error estimate only if `error`.
-fn progress_of(s: &Status<'_>, error: bool) -> PyProgress {
-    let first = s.info.first_iteration;
+/// The progress a callback sees, from a render's information and its error estimate.
+fn progress_of(info: &RenderInfo, error: Option<f64>) -> PyProgress {
+    let s = &info.settings;
     PyProgress {
-        iteration: s.info.iterations,
-        total: s.target_iterations.map(|t| (t + 1).saturating_sub(first)),
-        elapsed: s.info.elapsed,
+        iteration: info.iterations,
+        total: s.iterations.map(|last| (last + 1).saturating_sub(info.first_iteration)),
+        elapsed: info.elapsed,
         time_limit: s.time_limit,
-        error: if error { s.error_estimate().map(|e| e.upper) } else { None },
+        error,
     }
 }
 
@@ -224,7 +224,8 @@ fn run(
                 if due {
                     last_error = Instant::now();
                 }
-                let _ = tx.send(Report::Progress(progress_of(st, due)));
+                let error = if due { st.error_estimate().map(|e| e.upper) } else { None };
+                let _ = tx.send(Report::Progress(progress_of(st.info, error)));
             }
         };
         // A panic is a bug; it becomes an exception rather than aborting the interpreter.
@@ -235,18 +236,6 @@ fn run(
         let _ = tx.send(Report::Done(Box::new(result)));
     });
     Ok(py.detach(move || wait(&rx, &stop, callback)))
-}
-
-/// The progress of a finished render, with its error estimate.
-fn final_progress(part: &Partial) -> PyProgress {
-    let (info, s) = (&part.info, &part.info.settings);
-    PyProgress {
-        iteration: info.iterations,
-        total: s.iterations.map(|t| (t + 1).saturating_sub(info.first_iteration)),
-        elapsed: info.elapsed,
-        time_limit: s.time_limit,
-        error: part.film.error_estimate(s.target_confidence, s.target_region).map(|e| e.upper),
-    }
 }
 
 /// The calling thread's side of [`run`]: waits for the worker's result.
@@ -264,7 +253,10 @@ fn wait(
         let done = match rx.recv_timeout(POLL) {
             Ok(Report::Done(result)) => {
                 if let (Some(_), Ok(part)) = (callback, result.as_ref()) {
-                    latest = (part.info.iterations > 0).then(|| final_progress(part));
+                    let s = &part.info.settings;
+                    let error = part.film.error_estimate(s.target_confidence, s.target_region);
+                    latest = (part.info.iterations > 0)
+                        .then(|| progress_of(&part.info, error.map(|e| e.upper)));
                 }
                 Some(*result)
             }
@@ -343,24 +335,32 @@ fn render(
             "progress: must be callable (it receives a haze.Progress)",
         ));
     }
-    // A keyword given as None means the scene's setting, as if it were left out.
-    let options = PyDict::new(py);
+    // The keywords as a `[render]` table; one given as None leaves the scene's setting.
+    let mut table = toml::Table::new();
     for (k, v) in settings.map(|d| d.iter()).into_iter().flatten() {
+        let key: String = k.extract()?;
         if !v.is_none() {
-            options.set_item(k, v)?;
+            table.insert(key.clone(), convert::to_toml(&v, &key)?);
         }
     }
-    let range = iterations_option(&options, parse_iterations(iterations)?)?;
+    if let Some(s) = seed.filter(|s| !s.is_none()) {
+        table.insert("seed".into(), convert::to_toml(s, "seed")?);
+    }
     for (key, value) in [("time_limit", time), ("target_error", target_error)] {
         if let Some(v) = value {
-            options.set_item(key, v)?;
+            table.insert(key.into(), toml::Value::Float(v));
         }
     }
-    if let Some(s) = seed {
-        options.set_item("seed", s)?;
+    let it = parse_iterations(iterations)?;
+    let (start, last) = match it {
+        Iterations::Scene => (1, None),
+        Iterations::Count(n) => (1, Some(n)),
+        Iterations::Range(a, b) => (a, Some(b)),
+    };
+    if let Some(last) = last {
+        table.insert("iterations".into(), toml::Value::Integer(last as i64));
     }
-    let settings = render_settings(&scene.scene, &options)?;
-    let start = range.map_or(1, |r| r.0);
+    let settings = render_settings(&scene.scene, &table)?;
     let (result, raised) = run(py, &scene.scene, settings, start, threads, progress.as_ref())?;
     let part = result.map_err(to_py_err)?;
     if let Some(e) = raised {
@@ -374,19 +374,10 @@ fn render(
         )));
     }
     let part = PyPartial { part };
-    if range.is_some() {
+    if matches!(it, Iterations::Range(..)) {
         return Ok(Py::new(py, part)?.into_any());
     }
     Ok(Py::new(py, part.image_on(py, threads)?)?.into_any())
-}
-
-/// Sets the `iterations` option of a render call; returns the range, for a partial render.
-fn iterations_option(options: &Bound<'_, PyDict>, it: Iterations) -> PyResult<Option<(u64, u64)>> {
-    match it {
-        Iterations::Scene => Ok(None),
-        Iterations::Count(n) => options.set_item("iterations", n).map(|()| None),
-        Iterations::Range(a, b) => options.set_item("iterations", b).map(|()| Some((a, b))),
-    }
 }
 
 /// The error that stopped a render (Ctrl-C, or an exception of the progress callback), with

@@ -43,6 +43,12 @@ pub fn render(
     render_partial(scene, settings, Start::At(1), progress, stop).map(|p| p.image())
 }
 
+/// The most worker threads a render accepts: 8 per core (more only adds overhead). The command
+/// line's `--threads` and the Python module's `threads` are checked against it.
+pub fn max_threads() -> usize {
+    8 * std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 /// Where a [`render_partial`] starts.
 #[derive(Clone, Debug)]
 pub enum Start {

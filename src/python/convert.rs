@@ -38,6 +38,11 @@ fn child(parent: &str, key: &str) -> String {
     if parent.is_empty() { key.to_string() } else { format!("{parent}.{key}") }
 }
 
+/// A Python value as a TOML value (see [`value`]); `key` names it in errors.
+pub(super) fn to_toml(v: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+    value(v, key, 0)
+}
+
 /// Deepest nesting of dicts and lists taken (a scene file nests four deep).
 const MAX_DEPTH: usize = 32;
 

@@ -43,10 +43,8 @@ fn pixels(
         )));
     }
     let ro = a.try_readonly()?;
-    let values: Vec<f32> = match ro.as_slice() {
-        Ok(s) => s.to_vec(),
-        Err(_) => ro.as_array().iter().copied().collect(),
-    };
+    // In logical order, whatever the array's strides.
+    let values: Vec<f32> = ro.as_array().iter().copied().collect();
     Ok(values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
 }
 

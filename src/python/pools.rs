@@ -14,12 +14,11 @@ const KEPT: usize = 4;
 /// The pool of `threads` workers (None: rayon's default, every core), made if needed.
 pub(super) fn pool(threads: Option<usize>) -> PyResult<Arc<ThreadPool>> {
     static POOLS: Mutex<Vec<(u32, usize, Arc<ThreadPool>)>> = Mutex::new(Vec::new());
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let n = threads.unwrap_or(0);
-    if threads.is_some() && !(1..=8 * cores).contains(&n) {
+    let max = crate::max_threads();
+    if threads.is_some() && !(1..=max).contains(&n) {
         return Err(scene_error(format!(
-            "threads: must lie in 1..={} (8 per core on this machine), got {n}",
-            8 * cores
+            "threads: must lie in 1..={max} (8 per core on this machine), got {n}"
         )));
     }
     let pid = std::process::id();

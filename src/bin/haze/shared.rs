@@ -130,10 +130,7 @@ pub(crate) fn duration_words(s: f64) -> String {
     }
 }
 
-/// The most worker threads accepted: 8 per core.
-pub(crate) fn max_threads() -> usize {
-    8 * std::thread::available_parallelism().map_or(1, |n| n.get())
-}
+pub(crate) use haze::max_threads;
 
 /// The worker pool of every command, `--threads` checked against [`max_threads`].
 pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
