@@ -89,12 +89,33 @@ impl Kernels {
     }
 }
 
+/// The eye's density of a collision in a homogeneous medium over free flight's: 1 − e^{−σ l}, on
+/// an eye segment of length `l` to the next surface in a medium of mean extinction `sigma` (the
+/// combined integrator's eye path collides there with probability (1 − T)², T = e^{−σ l}, at a
+/// distance drawn ∝ T: density (1 − T) σ T(t) against free flight's σ T(t)). The light path
+/// computes the same factor for its vertex from the eye's segment through it: the piece it
+/// travels to its next vertex or surface and the distance back to the surface behind it.
+#[inline]
+pub(crate) fn collision_share(sigma: f32, l: f32) -> f32 {
+    -(-sigma * l).exp_m1()
+}
+
+/// The eye's density of crossing such a segment without a collision over free flight's:
+/// (1 − P) / T = 2 − T, with P = (1 − T)² ([`collision_share`]). A vertex the eye reaches past
+/// such crossings has its density times their product (a collision's also times its share);
+/// grids (free flight) and vacuum cross with 1.
+#[inline]
+pub(crate) fn crossing_share(sigma: f32, l: f32) -> f32 {
+    1.0 + collision_share(sigma, l)
+}
+
 /// What a vertex is, for the techniques that can merge there.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Site {
     /// A diffuse surface.
     Surface,
-    /// A medium collision, with the medium's mean extinction there.
+    /// A medium collision, with the eye's density factor of it there: the medium's mean
+    /// extinction σ, times [`collision_share`] in a homogeneous medium.
     Medium(f32),
     /// A mirror or glass: nothing merges or connects there.
     Specular,
@@ -272,16 +293,22 @@ mod tests {
         let mut v = Vec::new();
         for _ in 1..k {
             let r = s.next_f32();
+            // A collision: the light's density factor is σ (free flight), the eye's σ times
+            // its collision share (1 in a grid, 1 − e^{−σ l} in a homogeneous medium), which is
+            // the site's, and every vertex's the product of the crossings the eye made on its
+            // way there, in [1, 2] each (which the site leaves out: the beam samples them).
+            let (sigma, share) = (0.1 + 10.0 * s.next_f32(), (0.02 + s.next_f32()).min(1.0));
+            let crossed = 1.0 + 3.0 * s.next_f32();
             let site = if r < 0.4 {
                 Site::Surface
             } else if r < 0.8 {
-                Site::Medium(0.1 + 10.0 * s.next_f32())
+                Site::Medium(sigma * share)
             } else {
                 Site::Specular
             };
             let (g_prev, g_next) = match site {
-                Site::Medium(sigma) => (sigma, sigma),
-                _ => (0.05 + s.next_f32(), 0.05 + s.next_f32()),
+                Site::Medium(eye) => (sigma, eye * crossed),
+                _ => (0.05 + s.next_f32(), (0.05 + s.next_f32()) * crossed),
             };
             let (p_light, p_eye) = match site {
                 // A delta's density is 1, both ways.

@@ -22,7 +22,10 @@ use super::walk::{EyePath, EyeVisitor, Next, environment_seen, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::Estimate;
 use crate::estimate::mis::weight;
-use crate::estimate::mis::{Kernels, Site, eye_carry, hit_weight, merge_total, nee_weight};
+use crate::estimate::mis::{
+    Emitted, Kernels, Site, collision_share, crossing_share, eye_carry, hit_weight, merge_total,
+    nee_weight,
+};
 use crate::estimate::surface::{Gather, NORMAL_COS};
 use crate::math::{Rgb, offset_origin};
 use crate::medium::{BEAM_SEGMENT_RATE, Medium, SegmentTransmittance, TransmittanceDistance};
@@ -36,7 +39,6 @@ use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
 use crate::settings::{Technique, Techniques};
 use glam::Vec3;
-use std::f32::consts::FRAC_1_PI;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
 
@@ -281,6 +283,7 @@ impl Context<'_> {
             carry: 0.0,
             from: None,
             counted: false,
+            crossed: 1.0,
             first: true,
             bias: Rgb::ZERO,
             tally: Tally::default(),
@@ -302,6 +305,10 @@ struct CombinedEye<'a> {
     /// The emitter at the end of the last segment was counted there (in a medium, by its
     /// expected value over where the path went on): not again when the path reaches it.
     counted: bool,
+    /// The eye's density of the crossings since that vertex over free flight's: the product of
+    /// the homogeneous media's crossing shares (`mis::crossing_share`); every density the eye
+    /// has of a vertex it reaches carries it.
+    crossed: f32,
     /// No scattering event but specular ones yet: the path merges (at its first other vertex,
     /// and along its segments up to it), unless it merges everywhere (`Kernels::deep`).
     first: bool,
@@ -346,12 +353,28 @@ impl Scatterer for AtSurface<'_> {
 }
 
 /// A collision in a medium, reached along `d`, of scattering coefficient `sigma_s` and mean
-/// extinction `sigma`.
+/// extinction `sigma`; the eye's density of it is `share` times free flight's
+/// ([`collision_share`]) past crossings of density `crossed` times free flight's.
 struct InMedium<'a> {
     m: &'a Medium,
     d: Vec3,
     sigma_s: Rgb,
     sigma: f32,
+    share: f32,
+    crossed: f32,
+}
+
+impl InMedium<'_> {
+    /// The merges' site: the eye's density factor of the collision, σ times its share (the
+    /// crossings before it, which the beam samples too, left out).
+    fn site(&self) -> Site {
+        Site::Medium(self.sigma * self.share)
+    }
+
+    /// The eye's density factor of the collision, crossings included: its γ.
+    fn gamma_eye(&self) -> f32 {
+        self.sigma * self.share * self.crossed
+    }
 }
 
 impl Scatterer for InMedium<'_> {
@@ -378,7 +401,8 @@ impl CombinedEye<'_> {
 
     /// The radiance `le` of the area light the path reached at `hit`, weighed against
     /// next-event estimation from the vertex before and the merges.
-    fn emission_weighted(&self, path: &EyePath, hit: &Hit, le: Rgb) -> Rgb {
+    /// `crossed`: the eye's crossings since its last vertex (`Self::crossed`).
+    fn emission_weighted(&self, path: &EyePath, hit: &Hit, le: Rgb, crossed: f32) -> Rgb {
         let ctx = self.ctx;
         if !ctx.counts(Technique::Hit) {
             return Rgb::ZERO;
@@ -387,15 +411,15 @@ impl CombinedEye<'_> {
         let wo = -path.ray.d;
         let (e, _) = emitted(ctx.lights.emission_prob(li), &ctx.scene.lights[li], hit.ng, wo);
         let nee = self.from.as_ref().map_or(0.0, |(r, p_eye)| {
-            ctx.lights.pdf_li(&ctx.scene.lights, hit.tag, r, hit.p, e.cos) / p_eye
+            ctx.lights.pdf_li(&ctx.scene.lights, hit.tag, r, hit.p, e.cos) / (p_eye * crossed)
         });
-        le * ctx.w(hit_weight(nee, e, self.carry))
+        le * ctx.w(hit_weight(nee, crossing(e, crossed), self.carry))
     }
 
     /// The radiance `le` of the environment light the path reached along its ray, weighed as
     /// [`Self::emission_weighted`] (`photon/trace.rs`, `emitted`: the environment's vertex is
     /// measured by direction).
-    fn environment_weighted(&self, path: &EyePath, le: Rgb) -> Rgb {
+    fn environment_weighted(&self, path: &EyePath, le: Rgb, crossed: f32) -> Rgb {
         let ctx = self.ctx;
         if !ctx.counts(Technique::Hit) {
             return Rgb::ZERO;
@@ -404,11 +428,10 @@ impl CombinedEye<'_> {
         let wi = path.ray.d;
         let light = &ctx.scene.lights[li];
         let (e, _) = emitted(ctx.lights.emission_prob(li), light, Vec3::ZERO, -wi);
-        let nee = self
-            .from
-            .as_ref()
-            .map_or(0.0, |(r, p_eye)| ctx.lights.pdf_environment(&ctx.scene.lights, r, wi) / p_eye);
-        le * ctx.w(hit_weight(nee, e, self.carry))
+        let nee = self.from.as_ref().map_or(0.0, |(r, p_eye)| {
+            ctx.lights.pdf_environment(&ctx.scene.lights, r, wi) / (p_eye * crossed)
+        });
+        le * ctx.w(hit_weight(nee, crossing(e, crossed), self.carry))
     }
 
     /// Whether the path merges at its next vertex (and along the segment to it).
@@ -449,6 +472,7 @@ impl CombinedEye<'_> {
 
     /// Point–beam: the volume photons along the segment o + t d, 0 < t < `t_max`, in medium
     /// `id`, each weighed against the other techniques.
+    #[allow(clippy::too_many_arguments)]
     fn beam(
         &mut self,
         path: &mut EyePath,
@@ -456,7 +480,9 @@ impl CombinedEye<'_> {
         id: u32,
         t_max: f32,
         tr: &SegmentTransmittance,
+        share: f32,
     ) {
+        let crossed = self.crossed;
         let ctx = self.ctx;
         if ctx.beams.len() == 0 || !self.merges() || !ctx.counts(Technique::Beam) {
             return;
@@ -476,12 +502,15 @@ impl CombinedEye<'_> {
                 return;
             }
             let rec = &ctx.photons.volume_mis[ctx.beams.origin(slot)];
-            let (kp, kb) = ctx.kernels.medium(rec.sigma);
+            // The eye's density factor of the photon's point, had it collided there.
+            let sigma_eye = rec.sigma * share;
+            let (kp, kb) = ctx.kernels.medium(sigma_eye);
+            let gamma_eye = sigma_eye * crossed;
             // The phase function towards the eye; the eye's density of the photon's direction
             // and the photon's of the eye's are the same value (a symmetric phase function
             // sampled exactly).
             let v = phase.eval(ph.d, -d);
-            let total = merge_total(rec.light, v, kp + kb, carry, v, rec.sigma);
+            let total = merge_total(rec.light, v, kp + kb, carry, v, gamma_eye);
             // The beam map stores β·σ_s.
             let f = ph.beta * tr.at(t) * (v * ctx.w(weight(kb, total)));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 2);
@@ -496,17 +525,20 @@ impl CombinedEye<'_> {
     /// transmittance `tr`: a collision at `Some(t)`, or the surface at the segment's end
     /// (`None`), the throughput updated. In a grid, by free flight (a collision with
     /// probability 1 − T, at a distance drawn ∝ σ_t T). In a homogeneous medium, a collision
-    /// with probability P = (1 − T)² only, at a distance drawn ∝ T on the segment (the
-    /// throughput times T(t) / (p(t) P)), or else the surface (times T / (1 − P)): unbiased for
-    /// any P, whereas free flight, P = 1 − T, leaves every surface behind a thin medium with the
-    /// variance of a coin toss, though the light the medium scatters on the way is mostly the
-    /// beam's whatever the path does. (In a grid, distances ∝ T land in its empty space.)
+    /// with probability P = `share`² only (`share` = 1 − T̄, T̄ the transmittance of the weights'
+    /// mean extinction), at a distance drawn ∝ T on the segment (the throughput times
+    /// T(t) / (p(t) P)), or else the surface (times T / (1 − P)): unbiased for any P, whereas
+    /// free flight, P = 1 − T, leaves every surface behind a thin medium with the variance of a
+    /// coin toss, though the light the medium scatters on the way is mostly the beam's
+    /// whatever the path does. (In a grid, distances ∝ T land in its empty space.) The weights
+    /// see the collision's density, `share` times free flight's ([`collision_share`]).
     fn collide(
         &self,
         path: &mut EyePath,
         m: &Medium,
         tr: &SegmentTransmittance,
         t_max: f32,
+        share: f32,
     ) -> Option<f32> {
         if let SegmentTransmittance::Steps(_) = tr {
             let (o, d) = (path.ray.o, path.ray.d);
@@ -515,7 +547,7 @@ impl CombinedEye<'_> {
             return flight.scattered.then_some(flight.t);
         }
         let end = tr.at(t_max);
-        let p = (1.0 - crate::math::luminance(end)).clamp(0.0, 1.0).powi(2);
+        let p = share.clamp(0.0, 1.0).powi(2);
         if path.s.next_f32() >= p {
             path.beta *= end / (1.0 - p);
             return None;
@@ -536,8 +568,8 @@ impl CombinedEye<'_> {
             return;
         }
         let (phase, bounces, carry, d) = (at.m.phase(), self.bounces(path), self.carry, at.d);
-        let kp = ctx.kernels.point;
-        let bound = kp / (kp + phase.min_value() * carry / at.sigma);
+        let (kp, gamma_eye) = (ctx.kernels.point, at.gamma_eye());
+        let bound = kp / (kp + phase.min_value() * carry / gamma_eye);
         let Some(chance) = self.gather_chance(path, bound) else { return };
         let radius = ctx.points.radius();
         let inv_r2 = 1.0 / (radius * radius);
@@ -547,10 +579,10 @@ impl CombinedEye<'_> {
                 return;
             }
             let rec = &ctx.photons.volume_mis[ctx.points.origin(slot)];
-            let (kp, kb) = ctx.kernels.medium(rec.sigma);
+            let (kp, kb) = ctx.kernels.medium(rec.sigma * at.share);
             // As in `beam`: one value of the phase function is all three densities.
             let v = phase.eval(ph.d, -d);
-            let total = merge_total(rec.light, v, kp + kb, carry, v, at.sigma);
+            let total = merge_total(rec.light, v, kp + kb, carry, v, gamma_eye);
             let f = ph.beta * (v * ctx.w(weight(kp, total)));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 3);
             sum += f * k;
@@ -572,13 +604,13 @@ impl CombinedEye<'_> {
             return;
         }
         let (bounces, carry, ks) = (self.bounces(path), self.carry, ctx.kernels.surface);
-        // On a diffuse surface the eye's side is exactly carry / π (the cosines cancel).
-        let Some(chance) = self.gather_chance(path, ks / (ks + carry * FRAC_1_PI)) else {
+        // The light's density of the eye's direction over the eye's cosine (with its
+        // crossings): 1/π on a diffuse surface without them (the same for every photon on the
+        // eye's side of the surface), and the eye's side of the sum is carry times it.
+        let eye_side = at.p_light(n) / gamma_in;
+        let Some(chance) = self.gather_chance(path, ks / (ks + carry * eye_side)) else {
             return;
         };
-        // The light's density of the eye's direction over the eye's cosine: 1/π (the same for
-        // every photon on the eye's side of the surface).
-        let eye_side = at.p_light(n) / gamma_in;
         let radius = ctx.surface.radius();
         let inv_r2 = 1.0 / (radius * radius);
         let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
@@ -632,15 +664,23 @@ impl CombinedEye<'_> {
         // The light paths evaluate the same density at the same receiver (`photon/trace.rs`).
         let x0 = point.map_or(r.p, |pt| pt.p);
         let nee = nee_density(light, p_pick, pdfs, x0, r.p);
-        let hit = if e.cos > 0.0 { at.p_eye(ls.wi) * e.cos / nee } else { 0.0 };
-        let (gamma, p_light) = (at.gamma(ls.wi), at.p_light(ls.wi));
-        let w = ctx.w(nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in));
-        if w <= 0.0 {
+        // The eye would reach the light past the shadow ray's crossings.
+        let (tr, crossed) =
+            super::direct::shadow_crossed(ctx.scene, r.p, ls.wi, ls.dist, medium, s);
+        if tr.max_element() <= 0.0 {
             return Rgb::ZERO;
         }
-        let tr = super::direct::shadow(ctx.scene, r.p, ls.wi, ls.dist, medium, s);
+        let hit = if e.cos > 0.0 { at.p_eye(ls.wi) * e.cos * crossed / nee } else { 0.0 };
+        let (gamma, p_light) = (at.gamma(ls.wi), at.p_light(ls.wi));
+        let w = ctx.w(nee_weight(hit, e, nee, c, gamma, p_light, self.carry, gamma_in));
         f * ls.value * tr * (w / p_pick)
     }
+}
+
+/// `e` as the eye reaches the light past crossings of density `crossed` (over free flight's):
+/// its "cosine", the eye's density factor of the light's vertex, times them.
+fn crossing(e: Emitted, crossed: f32) -> Emitted {
+    Emitted { cos: e.cos * crossed, ..e }
 }
 
 /// Merges that can weigh at least this much are always gathered; below, by Russian roulette
@@ -660,37 +700,55 @@ impl EyeVisitor for CombinedEye<'_> {
         // One transmittance estimate per segment, shared by the beam's photons, an emitter at
         // its end and the choice of where the path goes on.
         let tr = m.segment(o, d, t_max, BEAM_SEGMENT_RATE, &mut path.s);
-        self.beam(path, m, id, t_max, &tr);
+        // The eye's density of a collision on the segment, and of crossing it, against free
+        // flight's.
+        let (share, crossing) = match m {
+            Medium::Homogeneous(_) => {
+                let sigma = m.mean_sigma_t(o);
+                (collision_share(sigma, t_max), crossing_share(sigma, t_max))
+            }
+            Medium::Vdb(_) => (1.0, 1.0),
+        };
+        self.beam(path, m, id, t_max, &tr, share);
         // The emitter the segment ends on, or the environment it leaves the scene towards, by its
         // expected value over that choice.
+        let crossed = self.crossed * crossing;
         let reached = match end {
-            Some(hit) => path.scene.le(hit, -d).map(|le| self.emission_weighted(path, hit, le)),
-            None => environment_seen(path).map(|le| self.environment_weighted(path, le)),
+            Some(hit) => {
+                path.scene.le(hit, -d).map(|le| self.emission_weighted(path, hit, le, crossed))
+            }
+            None => environment_seen(path).map(|le| self.environment_weighted(path, le, crossed)),
         };
         if let Some(l) = reached {
             let l = path.beta * tr.at(t_max) * l;
             self.count(path, l, Technique::Hit);
             self.counted = true;
         }
-        let Some(t) = self.collide(path, m, &tr, t_max) else { return Next::Continue };
+        let Some(t) = self.collide(path, m, &tr, t_max, share) else {
+            self.crossed = crossed;
+            return Next::Continue;
+        };
         self.counted = false;
         let x = o + d * t;
-        let at = InMedium { m, d, sigma_s: m.sigma_s(x), sigma: m.mean_sigma_t(x) };
+        let (sigma_s, sigma) = (m.sigma_s(x), m.mean_sigma_t(x));
+        let at = InMedium { m, d, sigma_s, sigma, share, crossed: self.crossed };
         self.points(path, id, x, &at);
-        let c = self.merges_at(Site::Medium(at.sigma));
+        let c = self.merges_at(at.site());
         let r = Receiver::medium(x);
         let medium = path.ray.medium;
-        let l = self.nee(path, &r, medium, c, at.sigma, &at);
+        let l = self.nee(path, &r, medium, c, at.gamma_eye(), &at);
         self.count(path, path.beta * l, Technique::Nee);
         if path.last() && !self.ctx.beyond_last || self.ctx.ends_at_merge {
             return Next::Stop;
         }
         let ps = m.phase().sample(d, path.s.next_2d());
         path.beta *= at.sigma_s * (ps.value / ps.pdf);
-        // The phase function is symmetric: the light's reverse density is the eye's.
-        self.carry = eye_carry(self.carry, c, ps.pdf, at.sigma, at.sigma, ps.pdf);
+        // The phase function is symmetric: the light's reverse density is the eye's. The eye
+        // arrived with its own density factor; the light's is free flight's, σ.
+        self.carry = eye_carry(self.carry, c, ps.pdf, at.gamma_eye(), at.sigma, ps.pdf);
         self.from = Some((r, ps.pdf));
         self.first = false;
+        self.crossed = 1.0;
         Next::Scatter { o: x, d: ps.wi }
     }
 
@@ -700,7 +758,7 @@ impl EyeVisitor for CombinedEye<'_> {
             return Rgb::ZERO;
         }
         // The walker adds it to the path.
-        let l = path.beta * self.emission_weighted(path, hit, le);
+        let l = path.beta * self.emission_weighted(path, hit, le, self.crossed);
         self.tally[Technique::Hit as usize] += l;
         l
     }
@@ -710,7 +768,7 @@ impl EyeVisitor for CombinedEye<'_> {
             // Counted at the end of the segment in the medium that led here.
             return Rgb::ZERO;
         }
-        let l = path.beta * self.environment_weighted(path, le);
+        let l = path.beta * self.environment_weighted(path, le, self.crossed);
         self.tally[Technique::Hit as usize] += l;
         l
     }
@@ -718,7 +776,7 @@ impl EyeVisitor for CombinedEye<'_> {
     fn diffuse(&mut self, path: &mut EyePath, hit: &Hit, material: &Material) -> Next {
         let wo = -path.ray.d;
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
-        let gamma_in = wo.dot(n);
+        let gamma_in = wo.dot(n) * self.crossed;
         let at = AtSurface { material, wo, ng: hit.ng, ns: hit.ns };
         self.surface(path, hit.p, n, &at, gamma_in);
         let c = self.merges_at(Site::Surface);
@@ -738,14 +796,17 @@ impl EyeVisitor for CombinedEye<'_> {
         self.carry = eye_carry(self.carry, c, p_rev, gamma_in, bs.wi.dot(hit.ng).abs(), bs.pdf);
         self.from = Some((r, bs.pdf));
         self.first = false;
+        self.crossed = 1.0;
         Next::Scatter { o: r.p, d: bs.wi }
     }
 
     fn after_specular(&mut self, path: &mut EyePath, hit: &Hit, wo: Vec3) {
         // A delta's densities are 1 both ways; nothing merges or connects here.
-        let (gamma_in, gamma_out) = (wo.dot(hit.ng).abs(), path.ray.d.dot(hit.ng).abs());
+        let gamma_in = wo.dot(hit.ng).abs() * self.crossed;
+        let gamma_out = path.ray.d.dot(hit.ng).abs();
         self.carry = eye_carry(self.carry, 0.0, 1.0, gamma_in, gamma_out, 1.0);
         self.from = None;
+        self.crossed = 1.0;
     }
 
     fn survive(&mut self, path: &mut EyePath) -> bool {

@@ -8,7 +8,9 @@
 //! [`next_event`] weighs the light sample, [`emission_weight`] an emitter the path reaches.
 
 use crate::accel::{Hit, Passage};
+use crate::estimate::mis::crossing_share;
 use crate::math::{Rgb, luminance, offset_origin, ray_offset};
+use crate::medium::Medium;
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::light::media::{EmitterPoint, EmitterPool};
@@ -61,6 +63,7 @@ fn cross(
     wanted: impl Fn(&Hit) -> bool,
     rate: f32,
     s: &mut Sampler,
+    mut crossed: Option<&mut f32>,
 ) -> Crossing {
     let mut crossings = SmallVec::<[Hit; 4]>::new();
     let stop = query == Query::Shadow;
@@ -88,7 +91,11 @@ fn cross(
     for hit in crossings.iter().map(Some).chain([end.as_ref()]) {
         let t1 = hit.map_or(dist, |h| h.t);
         if let Some(id) = medium {
-            tr *= scene.media[id as usize].transmittance_at_rate(o + d * t0, d, t1 - t0, rate, s);
+            let m = &scene.media[id as usize];
+            tr *= m.transmittance_at_rate(o + d * t0, d, t1 - t0, rate, s);
+            if let (Some(c), Medium::Homogeneous(_)) = (crossed.as_deref_mut(), m) {
+                *c *= crossing_share(m.mean_sigma_t(o), t1 - t0);
+            }
             if tr.max_element() <= 0.0 {
                 return Crossing::Blocked;
             }
@@ -126,10 +133,30 @@ fn shadow_at_rate(
     rate: f32,
     s: &mut Sampler,
 ) -> Rgb {
-    match cross(scene, o, d, dist, medium, Query::Shadow, |_| true, rate, s) {
+    match cross(scene, o, d, dist, medium, Query::Shadow, |_| true, rate, s, None) {
         Crossing::Reached(tr) => tr,
         Crossing::Surface(..) | Crossing::Blocked => Rgb::ZERO,
     }
+}
+
+/// [`shadow`], and the product of the combined integrator's eye crossing shares
+/// (`mis::crossing_share`) over the homogeneous media it crosses: the eye path's density of
+/// reaching the shadow ray's end over free flight's.
+pub(crate) fn shadow_crossed(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    dist: f32,
+    medium: Option<u32>,
+    s: &mut Sampler,
+) -> (Rgb, f32) {
+    let mut crossed = 1.0;
+    let query = Query::Shadow;
+    let tr = match cross(scene, o, d, dist, medium, query, |_| true, 1.0, s, Some(&mut crossed)) {
+        Crossing::Reached(tr) => tr,
+        Crossing::Surface(..) | Crossing::Blocked => Rgb::ZERO,
+    };
+    (tr, crossed)
 }
 
 /// Power-heuristic weight of a strategy with density `a` against one with density `b`, written
@@ -274,7 +301,7 @@ fn emitter_hit(
     }
     let query = if sky.is_some() { Query::SurfaceOrSky } else { Query::Surface };
     let wanted = |h: &Hit| scene.le(h, -d).is_some();
-    match cross(scene, o, d, f32::INFINITY, medium, query, wanted, 1.0, s) {
+    match cross(scene, o, d, f32::INFINITY, medium, query, wanted, 1.0, s, None) {
         Crossing::Surface(hit, tr) => Some(Source::Shape(hit, tr, scene.le(&hit, -d)?)),
         Crossing::Reached(tr) => sky.map(|env| Source::Sky(tr, env.radiance(d))),
         Crossing::Blocked => None,
@@ -446,7 +473,8 @@ mod tests {
                 };
                 // Start in no medium: which medium the origin lies in does not change geometry.
                 let query = Query::Surface;
-                let full = cross(&scene, o, d, f32::INFINITY, None, query, emits, 1.0, &mut s);
+                let full =
+                    cross(&scene, o, d, f32::INFINITY, None, query, emits, 1.0, &mut s, None);
                 let kept = scene.emitters.occluded(o, d, f32::INFINITY);
                 if let Crossing::Surface(..) = full {
                     reached += 1;

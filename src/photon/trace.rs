@@ -8,8 +8,9 @@
 use super::guide::{EmissionGuide, Guided, guided};
 use super::{Photon, VolumePhoton};
 use crate::accel::Hit;
-use crate::estimate::mis::{Emitted, Kernels, LightMis, Site};
+use crate::estimate::mis::{Emitted, Kernels, LightMis, Site, collision_share, crossing_share};
 use crate::math::{Rgb, offset_origin};
+use crate::medium::Medium;
 use crate::rng::{Purpose, Sampler};
 use crate::scene::Scene;
 use crate::scene::light::{Emission, EmissionPdfs, Light, LightSampler, Receiver};
@@ -197,8 +198,31 @@ struct PathMis<'a> {
     start: Option<Start>,
     /// The record at its current vertex …
     here: LightMis,
-    /// … and what it carries to the next.
+    /// … and what it carries to the next, once its segment there is known ([`Left`]).
     carry: f32,
+    /// The vertex left, until the path arrives at the next.
+    left: Option<Left>,
+    /// The eye's density of the crossings between the two over free flight's (as the eye, going
+    /// the other way, would make them): the product of the homogeneous media's crossing shares
+    /// (`mis::crossing_share`).
+    crossed: f32,
+}
+
+/// A vertex the light path left, whose carry waits for its segment to the next: the eye path
+/// that samples the vertex comes back along that segment, and its density of the vertex is the
+/// product of its crossings on the way times, for a collision in a homogeneous medium, its
+/// collision share ([`collision_share`]) — of the eye's segment from the end of the light's
+/// first piece (the next vertex, or the surface where the medium's segment ends) to the surface
+/// behind the collision, `back` away (in `homogeneous` until that piece is traced).
+#[derive(Clone, Copy)]
+struct Left {
+    site: Site,
+    p_rev: f32,
+    /// The cosine (or σ, times the share once known) towards the next vertex.
+    gamma_out: f32,
+    p_out: f32,
+    /// σ and `back`, for a collision in a homogeneous medium whose first piece is not traced.
+    homogeneous: Option<(f32, f32)>,
 }
 
 /// How `light`, picked for emission with probability `p_light`, emits from a point of normal `n`
@@ -251,29 +275,63 @@ impl<'a> PathMis<'a> {
     ) -> Self {
         let (emitted, pdfs) = emitted(lights.emission_prob(li), light, e.n, e.d);
         let start = Some(Start { light: li, x0: e.p, pdfs, e: emitted });
-        Self { lights, kernels, start, here: LightMis::default(), carry: 0.0 }
+        let here = LightMis::default();
+        Self { lights, kernels, start, here, carry: 0.0, left: None, crossed: 1.0 }
     }
 
     /// Arrives at a vertex, with the cosine (or σ) `gamma` against the arriving direction; `r`:
     /// where next-event estimation there connects from, as the eye paths' receiver (None at a
     /// specular vertex).
     fn arrive(&mut self, scene: &Scene, gamma: f32, r: Option<Receiver>) {
+        let crossed = std::mem::replace(&mut self.crossed, 1.0);
         self.here = match self.start.take() {
             Some(st) => {
                 let nee = r.map_or(0.0, |r| {
                     let pick = self.lights.prob(&r, st.light);
                     nee_density(&scene.lights[st.light], pick, st.pdfs, st.x0, r.p)
                 });
-                LightMis::first(st.e, nee, gamma)
+                // The eye reaches the light past the crossings.
+                let e = Emitted { cos: st.e.cos * crossed, ..st.e };
+                LightMis::first(e, nee, gamma)
             }
-            None => LightMis::arrive(self.carry, gamma),
+            None => {
+                if let Some(l) = self.left.take() {
+                    let c = self.kernels.at_light(l.site);
+                    self.carry = self.here.carry(c, l.p_rev, l.gamma_out * crossed, l.p_out);
+                }
+                LightMis::arrive(self.carry, gamma)
+            }
         };
     }
 
     /// Leaves the vertex (a `site`) by a direction of density `p_out` and cosine (or σ)
-    /// `gamma_out`; `p_rev`: the eye's density of the direction the light came from, given it.
-    fn leave(&mut self, site: Site, p_rev: f32, gamma_out: f32, p_out: f32) {
-        self.carry = self.here.carry(self.kernels.at_light(site), p_rev, gamma_out, p_out);
+    /// `gamma_out`; `p_rev`: the eye's density of the direction the light came from, given it;
+    /// `homogeneous`: σ and the distance to the surface behind, for a collision in a
+    /// homogeneous medium ([`Left`]).
+    fn leave(
+        &mut self,
+        site: Site,
+        p_rev: f32,
+        gamma_out: f32,
+        p_out: f32,
+        homogeneous: Option<(f32, f32)>,
+    ) {
+        self.left = Some(Left { site, p_rev, gamma_out, p_out, homogeneous });
+        self.crossed = 1.0;
+    }
+
+    /// The path traced a piece of its segment, `length` long, in `m` from `o` (up to its next
+    /// vertex, or to the surface the medium's segment ends at).
+    fn piece(&mut self, m: &Medium, o: Vec3, length: f32) {
+        let Medium::Homogeneous(_) = m else { return };
+        match self.left.as_mut().and_then(|l| l.homogeneous.take().map(|h| (l, h))) {
+            // The first piece from a collision: the eye's segment through it is known.
+            Some((l, (sigma, back))) => {
+                let eye = sigma * collision_share(sigma, length + back);
+                (l.site, l.gamma_out) = (Site::Medium(eye), eye);
+            }
+            None => self.crossed *= crossing_share(m.mean_sigma_t(o), length),
+        }
     }
 }
 
@@ -391,6 +449,9 @@ impl Traveller for Tracing<'_> {
         let m = &scene.media[id as usize];
         let Travel { o, d, .. } = path.ray;
         let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
+        if let Some(mis) = &mut path.mis {
+            mis.piece(m, o, if flight.scattered { flight.t } else { t_max });
+        }
         let before = path.beta;
         path.beta *= flight.weight;
         if !flight.scattered {
@@ -437,8 +498,14 @@ impl Traveller for Tracing<'_> {
             return Some(Vertex::Stop);
         };
         if let Some(mis) = &mut path.mis {
-            // The phase function is symmetric: the eye's reverse density is the same.
-            mis.leave(Site::Medium(sigma), ps.pdf, sigma, ps.pdf);
+            // The phase function is symmetric: the eye's reverse density is the same. The eye's
+            // density factor of this collision is free flight's, σ, in a grid; in a homogeneous
+            // medium its share of it needs the eye's segment through here.
+            let homogeneous = matches!(m, Medium::Homogeneous(_)).then(|| {
+                let behind = scene.intersect(p, -ps.wi, f32::INFINITY);
+                (sigma, behind.map_or(f32::INFINITY, |h| h.t))
+            });
+            mis.leave(Site::Medium(sigma), ps.pdf, sigma, ps.pdf, homogeneous);
         }
         (path.beta, path.ray.o, path.ray.d) = (b, p, ps.wi);
         Some(Vertex::Scattered)
@@ -484,10 +551,10 @@ impl Traveller for Tracing<'_> {
             let gamma_out = bs.wi.dot(hit.ng).abs();
             if diffuse {
                 let p_rev = material.pdf(bs.wi, wo, hit.ng, hit.ns);
-                mis.leave(Site::Surface, p_rev, gamma_out, bs.pdf);
+                mis.leave(Site::Surface, p_rev, gamma_out, bs.pdf, None);
             } else {
                 // A delta's densities are 1 both ways.
-                mis.leave(Site::Specular, 1.0, gamma_out, 1.0);
+                mis.leave(Site::Specular, 1.0, gamma_out, 1.0, None);
             }
         }
         path.beta = b;
@@ -544,4 +611,68 @@ pub(crate) fn trace_photons(
     }
     out.items = items;
     finished
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A light path's record at a collision holds the eye's density of the collision before
+    /// it as the eye computes it: coming back from the later collision along the direction the
+    /// light arrived by, to the surface behind the earlier one, its collision share of that
+    /// segment (`mis::collision_share`). For consecutive collisions in cornell-fog's fog with
+    /// nothing between them, the record's u is the carry from the earlier one over σ,
+    /// σ s / p (c + u p + v) / σ with s from the eye's own segment: a light path that measured
+    /// the eye's segment wrongly (say without the distance behind the collision) fails it.
+    #[test]
+    fn a_light_paths_records_hold_the_eyes_collision_share() {
+        let scene = Scene::load(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-fog.toml"))
+            .expect("the bundled scene loads");
+        let lights = LightSampler::new(&scene.lights, scene.shapes.len());
+        let kernels = Kernels::new(1000, 0.02, 0.05, true);
+        let pass = PhotonPass {
+            seed: 3,
+            iteration: 1,
+            first_path: 0,
+            paths: 4000,
+            max_bounces: 64,
+            skip_direct: false,
+            media_near: f32::INFINITY,
+            record: true,
+            mis: Some(kernels),
+        };
+        let mut out = Photons::default();
+        assert!(trace_photons(&scene, &lights, None, &pass, &AtomicBool::new(false), &mut out));
+        let (mut checked, mut shares) = (0, Vec::new());
+        for k in 1..out.volume.len() {
+            let (a, b) = (&out.volume[k - 1], &out.volume[k]);
+            let same_path = out.volume_path[k - 1] == out.volume_path[k];
+            if !same_path || b.bounces != a.bounces + 1 {
+                continue;
+            }
+            let (wi, dist) = ((b.p - a.p).normalize(), (b.p - a.p).length());
+            if scene.intersect(a.p, wi, dist).is_some() {
+                continue;
+            }
+            // The eye, from b back along the light's direction, to the next surface.
+            let l = scene.intersect(b.p, -wi, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
+            let (ra, rb) = (&out.volume_mis[k - 1], &out.volume_mis[k]);
+            let sigma = ra.sigma;
+            let s = collision_share(sigma, l);
+            let eye = sigma * s;
+            let p = scene.media[a.medium as usize].phase().pdf(a.d, wi);
+            let c = kernels.at_light(Site::Medium(eye));
+            let want = eye / p * (c + ra.light.sum(p)) / rb.sigma;
+            assert!(
+                (rb.light.u - want).abs() <= 2e-3 * want && rb.light.v == 0.0,
+                "collisions {a:?} → {b:?}: u = {} where the eye's share {s} gives {want}",
+                rb.light.u
+            );
+            checked += 1;
+            shares.push(s);
+        }
+        assert!(checked >= 200, "only {checked} pairs of consecutive collisions");
+        // The fog is thin enough that the share matters: some are far from 1.
+        assert!(shares.iter().any(|&s| s < 0.5), "shares {shares:?}");
+    }
 }
