@@ -97,7 +97,9 @@ impl Kernels {
 /// travels to its next vertex or surface and the distance back to the surface behind it.
 #[inline]
 pub(crate) fn collision_share(sigma: f32, l: f32) -> f32 {
-    -(-sigma * l).exp_m1()
+    // 0 where nothing collides: no extinction, even over an infinite segment (0 · ∞ is NaN).
+    let x = sigma * l;
+    if x > 0.0 { -(-x).exp_m1() } else { 0.0 }
 }
 
 /// The eye's density of crossing such a segment without a collision over free flight's:
@@ -433,6 +435,18 @@ mod tests {
             }
         }
         out
+    }
+
+    /// The eye's shares at the ends of their range: nothing collides without extinction (even
+    /// over an infinite segment), everything with it over an infinite one.
+    #[test]
+    fn shares_at_the_ends_of_their_range() {
+        assert_eq!(collision_share(0.0, f32::INFINITY), 0.0);
+        assert_eq!(crossing_share(0.0, f32::INFINITY), 1.0);
+        assert_eq!(collision_share(0.5, f32::INFINITY), 1.0);
+        assert_eq!(crossing_share(0.5, 0.0), 1.0);
+        let s = collision_share(0.5, 2.0);
+        assert!((s - (1.0 - (-1.0f32).exp())).abs() < 1e-6, "{s}");
     }
 
     /// For random paths of every length, kind of vertex and light, and both sets of merges (at
