@@ -120,10 +120,12 @@ pub(crate) fn shadow(
     medium: Option<u32>,
     s: &mut Sampler,
 ) -> Rgb {
-    shadow_at_rate(scene, o, d, dist, medium, 1.0, s)
+    shadow_at_rate(scene, o, d, dist, medium, 1.0, s, None)
 }
 
-/// [`shadow`] with grids' ratio tracking at `rate` times their majorants.
+/// [`shadow`] with grids' ratio tracking at `rate` times their majorants; with `crossed`, the
+/// eye's crossing shares of its homogeneous media multiplied into it ([`shadow_crossed`]).
+#[allow(clippy::too_many_arguments)]
 fn shadow_at_rate(
     scene: &Scene,
     o: Vec3,
@@ -132,8 +134,9 @@ fn shadow_at_rate(
     medium: Option<u32>,
     rate: f32,
     s: &mut Sampler,
+    crossed: Option<&mut f32>,
 ) -> Rgb {
-    match cross(scene, o, d, dist, medium, Query::Shadow, |_| true, rate, s, None) {
+    match cross(scene, o, d, dist, medium, Query::Shadow, |_| true, rate, s, crossed) {
         Crossing::Reached(tr) => tr,
         Crossing::Surface(..) | Crossing::Blocked => Rgb::ZERO,
     }
@@ -151,11 +154,7 @@ pub(crate) fn shadow_crossed(
     s: &mut Sampler,
 ) -> (Rgb, f32) {
     let mut crossed = 1.0;
-    let query = Query::Shadow;
-    let tr = match cross(scene, o, d, dist, medium, query, |_| true, 1.0, s, Some(&mut crossed)) {
-        Crossing::Reached(tr) => tr,
-        Crossing::Surface(..) | Crossing::Blocked => Rgb::ZERO,
-    };
+    let tr = shadow_at_rate(scene, o, d, dist, medium, 1.0, s, Some(&mut crossed));
     (tr, crossed)
 }
 
@@ -267,7 +266,7 @@ pub(crate) fn media_next_event(
     if !e.inside(scene) {
         return Rgb::ZERO;
     }
-    let tr = shadow_at_rate(scene, x, wi, dist, medium, MEDIA_SHADOW_RATE, s);
+    let tr = shadow_at_rate(scene, x, wi, dist, medium, MEDIA_SHADOW_RATE, s, None);
     unshadowed * tr * (total / MEDIA_CANDIDATES as f32 / target)
 }
 
