@@ -87,6 +87,7 @@ pub mod scene;
 pub mod settings;
 #[cfg(test)]
 mod testing;
+mod work;
 
 pub use error::{Error, Result};
 
@@ -145,14 +146,15 @@ pub mod fuzzing {
 struct ReadmeExamples;
 
 pub use glam;
+pub use integrator::combined::budget::{Budget, Measured, Pilot};
 pub use math::{RAY_EPSILON, Rgb};
 pub use output::{Image, RenderInfo};
 pub use partial::Partial;
 pub use photon::guide::MIN_GAIN as PILOT_MIN_GAIN;
 pub use plan::MIN_RADIUS_FRACTION;
 pub use render::{
-    MIN_TARGET_ITERATIONS, PILOT_PATHS, PhotonUsage, Start, max_threads, memory_estimate,
-    photon_usage, render, render_partial,
+    MIN_TARGET_ITERATIONS, PILOT_PATHS, PhotonUsage, Start, light_path_budget, max_threads,
+    memory_estimate, photon_usage, render, render_partial,
 };
 pub use scene::{Scene, SceneBuilder};
 pub use settings::{RenderOptions, RenderSettings};

@@ -17,7 +17,8 @@ use crate::estimate::kernel::Kernel;
 use crate::estimate::radius::radius;
 use crate::scene::Scene;
 use crate::settings::{
-    Integrator, Merges, PhotonGuiding, Progression, RenderSettings, Techniques, VolumeEstimate,
+    Integrator, Merges, PhotonBudget, PhotonGuiding, Progression, RenderSettings, Techniques,
+    VolumeEstimate,
 };
 
 /// The smallest initial radius accepted, relative to the scene's bounding-box diagonal: below it
@@ -98,6 +99,9 @@ pub(crate) struct Plan {
     /// Merge at every eye vertex (`Merges::Everywhere`), not only the first (the combined
     /// integrator).
     pub merge_everywhere: bool,
+    /// Let a pilot choose the light paths per iteration among fractions of `paths` (the
+    /// combined integrator, with every technique counting).
+    pub budget_pilot: bool,
 }
 
 impl Plan {
@@ -176,6 +180,10 @@ impl Plan {
             // A choice of the combined integrator's, which the others ignore (a scene can set
             // it for the combined integrator and still be rendered with another).
             merge_everywhere: settings.merges == Some(Merges::Everywhere),
+            // Each technique alone is a check of that technique at the count asked for.
+            budget_pilot: method == MethodKind::Combined
+                && settings.photon_budget != Some(PhotonBudget::Fixed)
+                && settings.only.is_none(),
         })
     }
 

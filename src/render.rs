@@ -305,6 +305,22 @@ pub fn photon_usage(
     Ok(method.photon_usage(scene, iteration.max(1), stop))
 }
 
+/// The combined integrator's light paths per iteration for a render of `scene` with `settings`,
+/// and what its pilot measured to choose them (`haze bench` reports it; docs/theory.md, "How
+/// many light paths"). `None` for the other integrators or if `stop` was raised.
+pub fn light_path_budget(
+    scene: &Scene,
+    settings: &RenderSettings,
+    stop: &AtomicBool,
+) -> Result<Option<crate::integrator::combined::Budget>> {
+    let plan = Plan::new(scene, settings)?;
+    if plan.method != MethodKind::Combined {
+        return Ok(None);
+    }
+    let mut combined = crate::integrator::combined::Combined::new(scene, &plan);
+    Ok(combined.budget(scene, stop))
+}
+
 /// Physical memory in bytes (Linux: /proc/meminfo), if known.
 fn physical_memory() -> Option<u64> {
     let info = std::fs::read_to_string("/proc/meminfo").ok()?;

@@ -24,6 +24,8 @@ pub enum Purpose {
     /// The pool of emitter points an iteration's next-event estimates towards emitting media
     /// choose their candidates from.
     EmitterPool = 6,
+    /// Where the combined integrator's light-path pilot puts its pixels.
+    Pilot = 7,
 }
 
 /// A portable seeded generator (xoshiro256++), with the float helpers the renderer needs.

@@ -137,6 +137,18 @@ choices! {
     }
 }
 
+choices! {
+    /// How the combined integrator sets its light paths per iteration.
+    pub enum PhotonBudget ("photon_budget") {
+        /// A pilot before the first iteration measures 1, 1/2, 1/4 and 1/8 of `photons` and
+        /// picks the count that reaches a given error soonest (the default; docs/theory.md,
+        /// "How many light paths").
+        Pilot = "pilot",
+        /// `photons`, as set.
+        Fixed = "fixed",
+    }
+}
+
 /// A set of the combined integrator's techniques, written with `+` between them
 /// (`surface+point`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -568,6 +580,12 @@ render_settings! {
     /// set of techniques). The other integrators ignore it.
     [long, value_name = "WHERE"]
     merges: Merges, optional = None, any;
+
+    /// With the combined integrator, how its light paths per iteration are set: `pilot` (the
+    /// default), a pilot before the first iteration picks 1, 1/2, 1/4 or 1/8 of `photons`; or
+    /// `fixed`, `photons` as set. The other integrators ignore it.
+    [long, value_name = "HOW"]
+    photon_budget: PhotonBudget, optional = None, any;
 }
 
 /// A rejected setting: the key (as in the scene file) and the reason.

@@ -75,7 +75,8 @@ for line in "${scenes[@]}"; do
   region=()
   if [ "$name" = volumetric-caustic ]; then region=(--region 0,46,250,141); fi
   "$HAZE" converge "scenes/$name.toml" "${common[@]}" "${region[@]}" -t "$RUN_TIME" "${series[@]}" \
-    --series "path:integrator=path" -o "$OUT/time-to-error-$name"
+    --series "combined:integrator=combined" --series "path:integrator=path" \
+    -o "$OUT/time-to-error-$name"
 done
 
 cmp() { # scene, output name, options...

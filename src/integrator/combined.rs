@@ -16,6 +16,8 @@
 //! each contribution multiplied by its technique's weight. Emitting media's light is gathered by
 //! the eye paths alone, in full (the photon pass emits from lights only).
 
+pub(crate) mod budget;
+
 use super::frame::{Frame, StepTimes};
 use super::path::roulette;
 use super::walk::{EyePath, EyeVisitor, Next, environment_seen, walk_eye};
@@ -38,8 +40,12 @@ use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
 use crate::settings::{Technique, Techniques};
+use crate::work::Work;
+pub(crate) use budget::Budget;
+use budget::Tallies;
 use glam::Vec3;
-use std::sync::atomic::{AtomicBool, AtomicU64};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 /// The combined estimator's plan and buffers, kept between iterations.
@@ -52,6 +58,8 @@ pub(crate) struct Combined {
     volume_beams: BeamMap,
     /// With `Plan::techniques`: each technique's contribution so far.
     layers: Layers,
+    /// The light paths per iteration, once chosen (by the pilot, or the plan's).
+    budget: Option<Budget>,
 }
 
 /// Each technique's contribution, summed over the iterations, per pixel ([`LAYERS`] layers in
@@ -85,6 +93,7 @@ impl Combined {
             volume_points: PhotonGrid::default(),
             volume_beams: BeamMap::new(),
             layers: Layers::default(),
+            budget: None,
         };
         // Each gathered photon's weight record is found by its index in the photon pass.
         c.surface_map.set_tracking(true);
@@ -93,9 +102,10 @@ impl Combined {
         c
     }
 
-    /// Light paths per iteration.
+    /// Light paths per iteration: the pilot's choice once it has run (`budget.rs`), the plan's
+    /// before.
     pub(crate) fn paths(&self) -> u64 {
-        self.plan.paths
+        self.budget.as_ref().map_or(self.plan.paths, |b| b.paths)
     }
 
     /// The schedule's radii at iteration `i`.
@@ -109,7 +119,8 @@ impl Combined {
     }
 
     /// One iteration: photon pass with weight records, the maps at the iteration's radii, and
-    /// the eye paths.
+    /// the eye paths. The first runs the light-path pilot (`budget.rs`) unless the plan fixes
+    /// the count.
     pub(crate) fn iterate(
         &mut self,
         scene: &Scene,
@@ -119,23 +130,126 @@ impl Combined {
         frame: &mut Frame,
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
+        if self.budget.is_none() {
+            let clock = Instant::now();
+            self.budget(scene, stop)?;
+            times.pilot = super::ppm::lap(clock);
+        }
+        let (seed, paths) = (self.plan.seed, self.paths());
+        let kernels = self.photons_at(scene, seed, i, paths, stop, &mut times)?;
+        let clock = Instant::now();
+        let mut layers = std::mem::take(&mut self.layers);
+        let ctx = self.context(scene, seed, i, paths, kernels);
+        let done = camera_pass(
+            self.plan.techniques.then_some(&mut layers),
+            scene,
+            &ctx,
+            stop,
+            nonfinite,
+            frame,
+        );
+        self.layers = layers;
+        if !done {
+            return None;
+        }
+        times.camera = super::ppm::lap(clock);
+        Some(times)
+    }
+
+    /// The light paths per iteration and how they were chosen (running the pilot if no
+    /// iteration has). `None` if `stop` was raised first.
+    pub(crate) fn budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<Budget> {
+        if self.budget.is_none() {
+            self.budget = Some(self.choose_budget(scene, stop)?);
+        }
+        self.budget.clone()
+    }
+
+    /// The light paths per iteration: the plan's where it fixes them or where nothing merges,
+    /// else the pilot's choice (`budget.rs`). `None` if `stop` was raised first.
+    fn choose_budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<Budget> {
+        let n = self.plan.paths;
+        if !self.plan.budget_pilot || !self.merges() {
+            return Some(Budget { paths: n, pilot: None });
+        }
+        let seed = self.plan.seed ^ budget::PILOT_SEED;
+        budget::choose(n, scene.camera.resolution, seed, |paths, iterations, pixels| {
+            self.pilot_iterations(scene, seed, paths, iterations, pixels, stop)
+        })
+    }
+
+    /// `iterations` pilot iterations (`budget.rs`; random streams of `seed`) with `paths`
+    /// light paths over `pixels`: each pixel's value and merges' part, and the work counted.
+    fn pilot_iterations(
+        &mut self,
+        scene: &Scene,
+        seed: u64,
+        paths: u64,
+        iterations: u64,
+        pixels: &[[u32; 2]],
+        stop: &AtomicBool,
+    ) -> Option<Tallies> {
+        let mut tallies = Tallies::new(pixels.len());
+        for i in budget::PILOT_ITERATION..budget::PILOT_ITERATION + iterations {
+            let mut times = StepTimes::default();
+            let kernels = self.photons_at(scene, seed, i, paths, stop, &mut times)?;
+            let stored = (self.photons.surface.len() + self.photons.volume.len()) as u64;
+            let spent = times.photon_trace + times.surface_map + times.volume_map;
+            let clock = Instant::now();
+            let ctx = self.context(scene, seed, i, paths, kernels);
+            let values: Vec<(Rgb, Rgb, Work)> = pixels
+                .par_iter()
+                .with_max_len(8)
+                .map(|&[x, y]| {
+                    let before = Work::here();
+                    let (e, tally) = ctx.pixel(x, y);
+                    let merged = budget::MERGES.iter().map(|&t| tally[t as usize]).sum();
+                    (e.value, merged, Work::here() - before)
+                })
+                .collect();
+            if stop.load(Ordering::Relaxed) {
+                return None;
+            }
+            let camera = clock.elapsed().as_secs_f64();
+            tallies.add((self.photons.work, stored, spent), &values, camera);
+        }
+        Some(tallies)
+    }
+
+    /// Whether technique `t` counts (`Plan::only`).
+    fn counts(&self, t: Technique) -> bool {
+        self.plan.only.is_none_or(|o: Techniques| o.contains(t))
+    }
+
+    /// Whether any merge counts: else no photon is traced.
+    fn merges(&self) -> bool {
+        [Technique::Surface, Technique::Point, Technique::Beam].into_iter().any(|t| self.counts(t))
+    }
+
+    /// The photon pass of `paths` light paths with weight records (random streams of `seed`)
+    /// and the maps at iteration `i`'s radii, each step's time into `times`; the kernels the
+    /// weights of the iteration take. `None` if `stop` was raised first.
+    fn photons_at(
+        &mut self,
+        scene: &Scene,
+        seed: u64,
+        i: u64,
+        paths: u64,
+        stop: &AtomicBool,
+        times: &mut StepTimes,
+    ) -> Option<Kernels> {
         let radii = self.plan.radii(i);
         // Merging at the first vertex only is the default: there a merge is a photon-mapping
         // estimate without a final gather; deeper merges come after the eye path's own sampling,
         // which the densities in the weights do not see as noise, and each costs a query
         // (`Merges`; docs/performance.md, "Where the eye merges", measures both).
-        let deep = self.plan.merge_everywhere;
-        let kernels = Kernels::new(self.plan.paths, radii.surface, radii.volume, deep);
+        let kernels = Kernels::new(paths, radii.surface, radii.volume, self.plan.merge_everywhere);
         let clock = Instant::now();
-        let only = self.plan.only;
-        let counts = |t| only.is_none_or(|o: Techniques| o.contains(t));
-        let merges =
-            [Technique::Surface, Technique::Point, Technique::Beam].into_iter().any(counts);
         let pass = PhotonPass {
-            seed: self.plan.seed,
+            seed,
             iteration: i,
             first_path: 0,
-            paths: self.plan.paths,
+            paths,
             max_bounces: self.plan.max_bounces,
             skip_direct: false,
             media_near: f32::INFINITY,
@@ -143,7 +257,9 @@ impl Combined {
             mis: Some(kernels),
         };
         // With `only` the eye's techniques, no photon is gathered: none is traced.
-        if merges && !trace_photons(scene, &self.lights, None, &pass, stop, &mut self.photons) {
+        if self.merges()
+            && !trace_photons(scene, &self.lights, None, &pass, stop, &mut self.photons)
+        {
             return None;
         }
         times.photon_trace = super::ppm::lap(clock);
@@ -153,8 +269,20 @@ impl Combined {
         let clock = Instant::now();
         self.build_volume_maps(scene, i, radii.volume as f32);
         times.volume_map = super::ppm::lap(clock);
-        let clock = Instant::now();
-        let ctx = Context {
+        Some(kernels)
+    }
+
+    /// What the eye paths of iteration `i` (random streams of `seed`) read, over the photons of
+    /// [`Self::photons_at`] with `paths` light paths and its `kernels`.
+    fn context<'a>(
+        &'a self,
+        scene: &'a Scene,
+        seed: u64,
+        i: u64,
+        paths: u64,
+        kernels: Kernels,
+    ) -> Context<'a> {
+        Context {
             scene,
             surface: &self.surface_map,
             points: &self.volume_points,
@@ -162,25 +290,19 @@ impl Combined {
             photons: &self.photons,
             lights: &self.lights,
             kernels,
-            gather: Gather { kernel: self.plan.kernel, inv_paths: 1.0 / self.plan.paths as f32 },
-            seed: self.plan.seed,
+            gather: Gather { kernel: self.plan.kernel, inv_paths: 1.0 / paths as f32 },
+            seed,
             iteration: i,
             max_bounces: self.plan.max_bounces,
             beyond_last: self.lights.reachable() || scene.has_emissive_media(),
-            only,
+            only: self.plan.only,
             // With only merges, and merges at the first vertex only, nothing deeper counts
             // (but the light of emitting media).
             ends_at_merge: !kernels.deep
                 && !scene.has_emissive_media()
-                && !counts(Technique::Hit)
-                && !counts(Technique::Nee),
-        };
-        let layers = self.plan.techniques.then_some(&mut self.layers);
-        if !camera_pass(layers, scene, &ctx, stop, nonfinite, frame) {
-            return None;
+                && !self.counts(Technique::Hit)
+                && !self.counts(Technique::Nee),
         }
-        times.camera = super::ppm::lap(clock);
-        Some(times)
     }
 
     /// Each technique's contribution to the image so far (the mean over the iterations), named

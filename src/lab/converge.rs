@@ -29,7 +29,8 @@ use crate::output::Image;
 use crate::progress::Status;
 use crate::scene::Scene;
 use crate::settings::{
-    Integrator, Kernel, Merges, Progression, RenderOptions, RenderSettings, VolumeEstimate,
+    Integrator, Kernel, Merges, PhotonBudget, Progression, RenderOptions, RenderSettings,
+    VolumeEstimate,
 };
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -805,7 +806,13 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
             .collect(),
         "photons" => [base.photons / 4, base.photons, base.photons * 4]
             .iter()
-            .map(|&p| with(format!("{p} photons/it"), &|s| s.photons = p.max(1)))
+            .map(|&p| {
+                with(format!("{p} photons/it"), &|s| {
+                    s.photons = p.max(1);
+                    // The count itself, not the most the combined integrator's pilot traces.
+                    s.photon_budget = Some(PhotonBudget::Fixed);
+                })
+            })
             .collect(),
         "progression" => [Progression::Probabilistic, Progression::Original]
             .iter()
@@ -830,21 +837,39 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
                 })
                 .collect()
         }
-        "merges" => [Merges::First, Merges::Everywhere]
-            .iter()
-            .map(|&m| {
-                with(format!("combined, merges {}", m.name()), &|s| {
-                    s.integrator = Integrator::Combined;
-                    s.merges = Some(m);
-                })
-            })
-            .collect(),
+        "merges" | "photon-budget" => combined_preset(name, base),
         _ => {
             return Err(format!(
-                "unknown comparison `{name}`; expected estimate, alpha, volume-alpha, kernel, dimension, photons, progression, integrator or merges"
+                "unknown comparison `{name}`; expected estimate, alpha, volume-alpha, kernel, dimension, photons, progression, integrator, merges or photon-budget"
             ));
         }
     })
+}
+
+/// The combined integrator's comparisons: where its eye paths merge (`merges`), and its
+/// light-path pilot against the count as given (`photon-budget`).
+fn combined_preset(name: &str, base: &RenderSettings) -> Vec<Series> {
+    let with = |label: String, f: &dyn Fn(&mut RenderSettings)| {
+        let mut s = base.clone();
+        s.integrator = Integrator::Combined;
+        f(&mut s);
+        Series { label, settings: s }
+    };
+    if name == "merges" {
+        [Merges::First, Merges::Everywhere]
+            .iter()
+            .map(|&m| with(format!("combined, merges {}", m.name()), &|s| s.merges = Some(m)))
+            .collect()
+    } else {
+        [PhotonBudget::Pilot, PhotonBudget::Fixed]
+            .iter()
+            .map(|&b| {
+                with(format!("combined, photon budget {}", b.name()), &|s| {
+                    s.photon_budget = Some(b)
+                })
+            })
+            .collect()
+    }
 }
 
 /// Parses a series `LABEL:KEY=VALUE,KEY=VALUE…` (keys of the scene file's `[render]` table)
@@ -887,6 +912,19 @@ mod tests {
         for s in &series {
             s.settings.validate().unwrap();
         }
+    }
+
+    #[test]
+    fn the_photon_budget_comparison_sets_the_combined_integrator() {
+        let series = preset("photon-budget", &RenderSettings::default()).unwrap();
+        let got: Vec<_> =
+            series.iter().map(|s| (s.settings.integrator, s.settings.photon_budget)).collect();
+        let combined = Integrator::Combined;
+        let want = [(combined, Some(PhotonBudget::Pilot)), (combined, Some(PhotonBudget::Fixed))];
+        assert_eq!(got, want);
+        // The photons comparison compares the counts themselves.
+        let counts = preset("photons", &RenderSettings::default()).unwrap();
+        assert!(counts.iter().all(|s| s.settings.photon_budget == Some(PhotonBudget::Fixed)));
     }
 
     #[test]

@@ -242,6 +242,7 @@ pub(crate) fn tentative<M: Tracked>(
             }
         }
     });
+    crate::work::steps(steps.into());
     if cut {
         m.cut();
     }

@@ -379,22 +379,24 @@ impl BeamMap {
             return;
         }
         let ray = Lanes::new(o, d, self.radius);
-        if self.view_active {
-            if let Some(b) = self.view.bin(o, d) {
-                self.view.entries.scan(b, &ray, 0.0, t_max, |i, t, d2| {
-                    f(&self.photons[i as usize], i as usize, t, d2)
+        let mut n = 0u64;
+        let mut found = |i: u32, t: f32, d2: f32| {
+            n += 1;
+            f(&self.photons[i as usize], i as usize, t, d2)
+        };
+        match self.view_active.then(|| self.view.bin(o, d)).flatten() {
+            Some(b) => self.view.entries.scan(b, &ray, 0.0, t_max, &mut found),
+            None => {
+                // Walk the cells in grid coordinates, where cell k spans [k, k + 1).
+                let og = (o - self.lo) * self.inv_cell;
+                let dg = d * self.inv_cell;
+                crate::dda::walk(og, dg, t_max, self.dims, |cell, t_in, t_out| {
+                    self.grid.scan(self.index(cell), &ray, t_in, t_out, &mut found);
+                    true
                 });
-                return;
             }
         }
-        let mut found = |i: u32, t: f32, d2: f32| f(&self.photons[i as usize], i as usize, t, d2);
-        // Walk the cells in grid coordinates, where cell k spans [k, k + 1).
-        let og = (o - self.lo) * self.inv_cell;
-        let dg = d * self.inv_cell;
-        crate::dda::walk(og, dg, t_max, self.dims, |cell, t_in, t_out| {
-            self.grid.scan(self.index(cell), &ray, t_in, t_out, &mut found);
-            true
-        });
+        crate::work::found(n);
     }
 }
 

@@ -144,6 +144,7 @@ impl<P: Located + Copy + Default + Send + Sync> PhotonGrid<P> {
                         n_seen += 1;
                     }
                     let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
+                    crate::work::found((e - s) as u64);
                     for (k, ph) in self.photons[s..e].iter().enumerate() {
                         let d2 = (ph.position() - p).length_squared();
                         if d2 < r2 {

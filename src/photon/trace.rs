@@ -82,6 +82,9 @@ pub struct Photons {
     pub(crate) surface_mis: Vec<PhotonMis>,
     /// … and each volume photon's.
     pub(crate) volume_mis: Vec<PhotonMis>,
+    /// The work the pass counted ([`crate::work`]): of its light paths, tracing included,
+    /// storing not.
+    pub(crate) work: crate::work::Work,
     /// The photons of each work item of the last pass, kept so that their buffers are reused.
     items: Vec<Photons>,
 }
@@ -95,6 +98,7 @@ impl Photons {
         self.paths.clear();
         self.surface_mis.clear();
         self.volume_mis.clear();
+        self.work = crate::work::Work::default();
     }
 
     /// Makes these photons the work items' `items`, in order, copying in parallel.
@@ -106,6 +110,7 @@ impl Photons {
         concat(&mut self.paths, items, |p| &p.paths);
         concat(&mut self.surface_mis, items, |p| &p.surface_mis);
         concat(&mut self.volume_mis, items, |p| &p.volume_mis);
+        self.work = items.iter().map(|p| p.work).sum();
     }
 }
 
@@ -594,6 +599,7 @@ pub(crate) fn trace_photons(
     let finished = items.par_iter_mut().enumerate().with_max_len(1).all(|(c, local)| {
         local.clear();
         let c = c as u64;
+        let before = crate::work::Work::here();
         for index in c * CHUNK..((c + 1) * CHUNK).min(pass.paths) {
             // Path by path, as pixels are (`integrator::render_rows`).
             if stop.load(Ordering::Relaxed) {
@@ -601,6 +607,7 @@ pub(crate) fn trace_photons(
             }
             trace_path(scene, emitting, p_media, pass, pass.first_path + index, local);
         }
+        local.work = crate::work::Work::here() - before;
         true
     });
     if finished {

@@ -198,6 +198,7 @@ impl Scene {
     /// [`Scene::shapes`].
     #[inline]
     pub(crate) fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
+        crate::work::ray();
         self.accel.intersect(o, d, t_max)
     }
 

@@ -36,7 +36,8 @@ fn image_is_bit_identical_across_thread_counts() {
 /// Media: the beam estimate through the view bins (pinhole camera outside the fog, and inside it
 /// in spotlight-fog) and the grid (segments refracted by the lens), with and without thinning, the
 /// point estimate, and the combined integrator (with thinning: its merges find each photon's
-/// weight record through the thinned map), merging at the first eye vertex and everywhere.
+/// weight record through the thinned map), merging at the first eye vertex and everywhere, its
+/// light paths per iteration chosen by its pilot (from counted work, not from the clock).
 #[test]
 fn media_images_are_bit_identical_across_thread_counts() {
     for (name, size) in

@@ -52,6 +52,15 @@ fn settings(integrator: Integrator, estimate: VolumeEstimate) -> RenderSettings 
     }
 }
 
+/// The combined integrator, whose pilot chooses the light paths per iteration before the first
+/// iteration of every part: each part chooses the same.
+#[test]
+fn ranges_of_the_combined_integrator_merge_and_resume_exactly() {
+    let combined =
+        RenderSettings { photons: 4_000, ..settings(Integrator::Combined, VolumeEstimate::Beam) };
+    check_exact("cornell-fog.toml", &combined);
+}
+
 #[test]
 fn ranges_merge_and_resume_exactly_in_homogeneous_fog() {
     for integrator in [Integrator::Hybrid, Integrator::PhotonMapping] {

@@ -4,6 +4,7 @@ mod analytic;
 mod api;
 mod bad_scenes;
 mod bias;
+mod budget;
 mod cli;
 mod common;
 mod converge;

@@ -153,6 +153,9 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
         bail!("--iterations must be at least 2 for a benchmark (the first is a warm-up)");
     }
     report(&path, &scene, &settings, pool.current_num_threads(), timed, &totals);
+    if let Some(b) = pool.install(|| haze::light_path_budget(&scene, &settings, &stop))? {
+        report_budget(&b, settings.photons);
+    }
     if settings.integrator.uses_photons() {
         let usage = pool.install(|| haze::photon_usage(&scene, &settings, 2, &stop))?;
         if let Some(u) = usage {
@@ -160,6 +163,46 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Prints the combined integrator's light paths per iteration and what its pilot measured.
+fn report_budget(b: &haze::Budget, asked: u64) {
+    let Some(p) = &b.pilot else {
+        println!("light paths per iteration: {} (fixed)", b.paths);
+        return;
+    };
+    println!(
+        "light paths per iteration: {} of the {asked} asked for, chosen by the pilot ({:.3} s, once per render; {} of {} pixels per pilot iteration)",
+        b.paths, p.seconds, p.pixels.0, p.pixels.1
+    );
+    println!(
+        "| light paths | pilot iterations | variance per iteration (merges' part) | light rays | light steps | stored | eye rays | eye steps | photons found | modelled ms | measured ms (photons + camera) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let scale = p.pixels.1 as f64 / p.pixels.0 as f64;
+    for m in &p.measured {
+        let variance = if m.iterations > 1 {
+            format!("{:.4e} ({:.4e})", m.variance, m.merge_variance)
+        } else {
+            "—".to_string()
+        };
+        println!(
+            "| {} | {} | {variance} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.2} | {:.2} + {:.2} |",
+            m.paths,
+            m.iterations,
+            m.light[0],
+            m.light[1],
+            m.stored,
+            m.eye[0],
+            m.eye[1],
+            m.eye[2],
+            m.cost * 1e-6,
+            m.seconds[0] * 1e3,
+            m.seconds[1] * scale * 1e3,
+        );
+    }
+    let ranked: Vec<String> = p.ranked.iter().map(|(n, r)| format!("{n}: {r:.3}")).collect();
+    println!("predicted variance × cost per iteration, relative: {}", ranked.join(", "));
 }
 
 /// Prints what one iteration's photons were used for, and what the guiding pilot found.

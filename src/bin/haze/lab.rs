@@ -48,8 +48,8 @@ pub(crate) struct ConvergeArgs {
     #[arg(long, value_name = "K", default_value_t = 1)]
     runs: u32,
     /// A named comparison: estimate, alpha, volume-alpha, kernel, dimension, photons,
-    /// progression, integrator or merges (the combined integrator's, first and everywhere)
-    /// (repeatable).
+    /// progression, integrator, merges (the combined integrator's, first and everywhere) or
+    /// photon-budget (the combined integrator's pilot against the count as given) (repeatable).
     #[arg(long, value_name = "NAME")]
     compare: Vec<String>,
     /// A series LABEL:KEY=VALUE,… with keys of the scene's [render] table, e.g.

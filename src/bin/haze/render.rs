@@ -274,8 +274,18 @@ fn summary(
     let i = &part.info;
     let interrupted = interrupted_by.map(|n| format!(" (interrupted by {n})")).unwrap_or_default();
     let work = match i.settings.integrator {
-        Integrator::PhotonMapping | Integrator::Hybrid | Integrator::Combined => {
+        Integrator::PhotonMapping | Integrator::Hybrid => {
             format!("{} light paths, final radius {:.5}", i.light_paths, i.radius)
+        }
+        Integrator::Combined => {
+            // The pilot may have chosen fewer light paths per iteration than `photons`.
+            let per = i.light_paths.checked_div(i.iterations).unwrap_or(0);
+            let chosen = if per != i.settings.photons && per > 0 {
+                format!(" ({per} per iteration, chosen by the pilot from {})", i.settings.photons)
+            } else {
+                String::new()
+            };
+            format!("{} light paths{chosen}, final radius {:.5}", i.light_paths, i.radius)
         }
         Integrator::Path => "path tracing, one sample per pixel per iteration".to_string(),
     };

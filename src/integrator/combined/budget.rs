@@ -1,0 +1,356 @@
+//! How many light paths the combined integrator traces per iteration: a pilot that renders,
+//! before the first iteration, a few iterations with the scene's count and two with an eighth
+//! of it, predicts the variance and the cost of an iteration with 1, 1/2, 1/4 and 1/8 of the
+//! count, and picks the count whose variance times cost is the smallest — the one that reaches a
+//! given error soonest (docs/theory.md, "How many light paths").
+//!
+//! At the scene's count N it measures, over a sparse set of pixels, the variance V of an
+//! iteration and the variance V_M of the merges' part of it. The merges' part is a mean over the
+//! N light paths, so with N/d of them (the weights held as they are) its variance is d V_M and
+//! the iteration's V + (d − 1) V_M. The cost of an iteration is the work counted while rendering
+//! ([`crate::work`]: rays, tentative collisions in grids, photons found, photons stored), a line
+//! in the light paths through the costs measured at N and N/8. The variance at fewer light
+//! paths is predicted rather than measured: measured from a few iterations it comes out low,
+//! because what the photons add is heavy-tailed and rare large values are what a few iterations
+//! miss (fog-forward at N/8: 4,391 from the pilot's 8 iterations, 7,240 from 200).
+//!
+//! Every input is a function of the scene, the settings and the seed, so the choice is the same
+//! on every machine, thread count and split of the render into processes; the clock is read
+//! only to report.
+
+use crate::math::Rgb;
+use crate::rng::{Purpose, Sampler};
+use crate::settings::Technique;
+use crate::work::Work;
+use std::time::Instant;
+
+/// Pilot iterations with the scene's count, for the variances and the cost …
+pub(crate) const PILOT_ITERATIONS: u64 = 8;
+
+/// … and with an eighth of it, for the cost alone (counted work varies little from one
+/// iteration to the next).
+pub(crate) const COST_ITERATIONS: u64 = 2;
+
+/// The pilot's iterations take the radii of this iteration and the next ones: the radii whose
+/// merges are as noisy as the mean iteration's of a render of about 1,200 iterations (the
+/// variance of a merge grows as 1/r^d, and the mean over iterations 1 … n of r_i^{−d} is about
+/// r_{n/2.3}^{−d} for the schedules' α), a few seconds at the time-to-error settings. A fixed
+/// index keeps the choice the same for every range of a render split over processes.
+pub(crate) const PILOT_ITERATION: u64 = 512;
+
+/// About this many pixels, one in each cell of a grid over the image, are rendered by each
+/// pilot iteration.
+const PILOT_PIXELS: u32 = 2048;
+
+/// The divisors of the scene's light paths per iteration that the pilot chooses among.
+pub(crate) const DIVISORS: [u64; 4] = [1, 2, 4, 8];
+
+/// Nanoseconds of 2-core time per unit of counted work, fitted to the measured times of the
+/// photon and camera passes of the bundled scenes (docs/performance.md, "How many light paths").
+/// Only their ratios matter.
+const NS_PER_RAY: f64 = 150.0;
+const NS_PER_STEP: f64 = 25.0;
+const NS_PER_FOUND: f64 = 15.0;
+const NS_PER_STORED: f64 = 40.0;
+
+/// The merging techniques, whose part of an iteration is a mean over its light paths.
+pub(super) const MERGES: [Technique; 3] = [Technique::Surface, Technique::Point, Technique::Beam];
+
+/// Mixed into the seed for the pilot's random streams, so that its iterations are not the
+/// render's.
+pub(super) const PILOT_SEED: u64 = 0x7069_6c6f_745f_6e6c;
+
+/// The light paths per iteration, and what the pilot measured to choose them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Budget {
+    /// Light paths per iteration.
+    pub paths: u64,
+    /// The pilot's measurements and ranking; `None` where no pilot ran (the count was
+    /// fixed, or no merge counts).
+    pub pilot: Option<Pilot>,
+}
+
+/// What the pilot measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pilot {
+    /// The counts measured: the scene's, then an eighth of it.
+    pub measured: Vec<Measured>,
+    /// Each candidate count, with its predicted variance times cost per iteration relative to
+    /// the scene's count's, the smaller the better.
+    pub ranked: Vec<(u64, f64)>,
+    /// Pixels rendered per pilot iteration, and the image's pixels.
+    pub pixels: (usize, usize),
+    /// Seconds the pilot took (reported only; the choice never reads the clock).
+    pub seconds: f64,
+}
+
+/// One count as the pilot measured it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measured {
+    /// Light paths per iteration.
+    pub paths: u64,
+    /// Pilot iterations rendered with them.
+    pub iterations: u64,
+    /// The variance of one iteration's image, summed over the pilot's pixels and channels,
+    /// each pixel's held to at most the [`CAP_QUANTILE`] quantile of the pixels' (the scene's
+    /// count only; 0 for the other).
+    pub variance: f64,
+    /// The same of the merges' part of the image.
+    pub merge_variance: f64,
+    /// Work of one iteration's light paths: rays and tentative collisions (photons found by
+    /// the eye are counted with the eye).
+    pub light: [f64; 2],
+    /// Photons stored per iteration.
+    pub stored: f64,
+    /// Work of one iteration's eye paths over the whole image: rays, tentative collisions,
+    /// photons found.
+    pub eye: [f64; 3],
+    /// The cost model's nanoseconds per iteration.
+    pub cost: f64,
+    /// Seconds per pilot iteration, photon pass and camera pass over the pilot's pixels
+    /// (reported only).
+    pub seconds: [f64; 2],
+}
+
+/// What pilot iterations with one count of light paths gave: per pixel the sums of the image's
+/// values and squares and of its merges' part's, and the work and time of the iterations.
+pub(super) struct Tallies {
+    sums: Vec<[Rgb; 4]>,
+    light: Work,
+    eye: Work,
+    stored: u64,
+    seconds: [f64; 2],
+    iterations: u64,
+}
+
+/// One pilot iteration's photon pass: the work of its light paths, the photons stored and the
+/// seconds it took.
+pub(super) type PhotonPassDone = (Work, u64, f64);
+
+impl Tallies {
+    /// None yet, over `pixels` pixels.
+    pub(super) fn new(pixels: usize) -> Self {
+        Self {
+            sums: vec![[Rgb::ZERO; 4]; pixels],
+            light: Work::default(),
+            eye: Work::default(),
+            stored: 0,
+            seconds: [0.0; 2],
+            iterations: 0,
+        }
+    }
+
+    /// One pilot iteration: its photon pass, and for each pixel its value, its merges' part and
+    /// the eye's work (a pixel whose value is not finite counts as black, as in a render), the
+    /// camera pass having taken `camera` seconds.
+    pub(super) fn add(
+        &mut self,
+        photons: PhotonPassDone,
+        pixels: &[(Rgb, Rgb, Work)],
+        camera: f64,
+    ) {
+        let (light, stored, seconds) = photons;
+        self.light += light;
+        self.stored += stored;
+        self.seconds[0] += seconds;
+        self.seconds[1] += camera;
+        self.iterations += 1;
+        for (s, &(v, m, w)) in self.sums.iter_mut().zip(pixels) {
+            let (v, m) =
+                if v.is_finite() && m.is_finite() { (v, m) } else { (Rgb::ZERO, Rgb::ZERO) };
+            *s = [s[0] + v, s[1] + v * v, s[2] + m, s[3] + m * m];
+            self.eye += w;
+        }
+    }
+
+    /// The measurement of `paths` light paths per iteration, the eye's work scaled by `scale`
+    /// to the whole image; the variances need at least two iterations.
+    fn measured(&self, paths: u64, scale: f64) -> Measured {
+        let k = self.iterations.max(1) as f64;
+        let variance = |sum: Rgb, squares: Rgb| {
+            let (s, s2) = (sum.as_dvec3(), squares.as_dvec3());
+            ((s2 - s * s / k) / (k - 1.0)).max(glam::DVec3::ZERO).element_sum()
+        };
+        let (variance, merge_variance) = if self.iterations < 2 {
+            (0.0, 0.0)
+        } else {
+            let all: Vec<f64> = self.sums.iter().map(|s| variance(s[0], s[1])).collect();
+            let merged: Vec<f64> = self.sums.iter().map(|s| variance(s[2], s[3])).collect();
+            (capped_sum(all), capped_sum(merged))
+        };
+        let per = |x: u64| x as f64 / k;
+        let light = [per(self.light.rays), per(self.light.steps)];
+        let eye = self.eye;
+        let eye = [per(eye.rays) * scale, per(eye.steps) * scale, per(eye.found) * scale];
+        let stored = per(self.stored);
+        let cost = NS_PER_RAY * (light[0] + eye[0])
+            + NS_PER_STEP * (light[1] + eye[1])
+            + NS_PER_FOUND * eye[2]
+            + NS_PER_STORED * stored;
+        Measured {
+            paths,
+            iterations: self.iterations,
+            variance,
+            merge_variance,
+            light,
+            stored,
+            eye,
+            cost,
+            seconds: self.seconds.map(|s| s / k),
+        }
+    }
+}
+
+/// The pilot for a render of `n` light paths per iteration at `resolution`, its pixels drawn
+/// from `seed`: `iterate(paths, iterations, pixels)` renders that many pilot iterations (at
+/// the radii of [`PILOT_ITERATION`] on) over the pixels. `None` if it returned `None` (a stop).
+pub(super) fn choose(
+    n: u64,
+    resolution: [u32; 2],
+    seed: u64,
+    mut iterate: impl FnMut(u64, u64, &[[u32; 2]]) -> Option<Tallies>,
+) -> Option<Budget> {
+    let eighth = DIVISORS[DIVISORS.len() - 1];
+    if n < eighth {
+        return Some(Budget { paths: n, pilot: None });
+    }
+    let clock = Instant::now();
+    let [w, h] = resolution;
+    let pixels = pilot_pixels(w, h, seed);
+    let scale = (w as f64 * h as f64) / pixels.len() as f64;
+    let whole = iterate(n, PILOT_ITERATIONS, &pixels)?.measured(n, scale);
+    let fewest = iterate(n / eighth, COST_ITERATIONS, &pixels)?.measured(n / eighth, scale);
+    let ranked = rank(&whole, &fewest);
+    let best = ranked.iter().min_by(|a, b| a.1.total_cmp(&b.1)).map_or(n, |p| p.0);
+    let pilot = Pilot {
+        measured: vec![whole, fewest],
+        ranked,
+        pixels: (pixels.len(), (w * h) as usize),
+        seconds: clock.elapsed().as_secs_f64(),
+    };
+    Some(Budget { paths: best, pilot: Some(pilot) })
+}
+
+/// The share of the pilot's pixels whose variance is kept as measured; the rest are held to the
+/// largest of these. The variances come from a few iterations each, and in a medium that
+/// scatters sharply a handful of pixels would otherwise decide the choice by chance (on
+/// fog-backward the unheld sums ranked the counts differently from one seed to the next).
+pub(crate) const CAP_QUANTILE: f64 = 0.999;
+
+/// The sum of the pixels' variances `v`, each held to at most their [`CAP_QUANTILE`] quantile.
+fn capped_sum(mut v: Vec<f64>) -> f64 {
+    let mut sorted = v.clone();
+    sorted.sort_by(f64::total_cmp);
+    let at = ((sorted.len() as f64 * CAP_QUANTILE) as usize).min(sorted.len().saturating_sub(1));
+    let limit = sorted.get(at).copied().unwrap_or(0.0);
+    v.iter_mut().for_each(|x| *x = x.min(limit));
+    v.iter().sum()
+}
+
+/// The pixels a pilot iteration renders: one in each cell of s × s pixels over the image, at a
+/// place in the cell drawn from `seed`; s is chosen for about [`PILOT_PIXELS`] of them (every
+/// pixel of a small image). A drawn place, not the cells' centres: the variance of an image can
+/// sit in a few rows or columns (a lamp's edge seen through fog, where a pixel sees the lamp or
+/// not), which a regular grid of pixels may miss altogether.
+fn pilot_pixels(w: u32, h: u32, seed: u64) -> Vec<[u32; 2]> {
+    let s = ((w as f64 * h as f64 / PILOT_PIXELS as f64).sqrt().floor() as u32).max(1);
+    let (cw, ch) = (w.div_ceil(s), h.div_ceil(s));
+    (0..cw * ch)
+        .map(|c| {
+            let (cx, cy) = (c % cw * s, c / cw * s);
+            let mut r = Sampler::new(seed, Purpose::Pilot, 0, c as u64);
+            let at =
+                |lo: u32, n: u32, u: f32| lo + ((u * (n - lo).min(s) as f32) as u32).min(s - 1);
+            let x = at(cx, w, r.next_f32());
+            let y = at(cy, h, r.next_f32());
+            [x.min(w - 1), y.min(h - 1)]
+        })
+        .collect()
+}
+
+/// Each candidate count n/d, d in [`DIVISORS`], with its predicted variance times cost per
+/// iteration relative to count n's: the variance V + (d − 1) V_M from the scene's count
+/// (`whole`), the cost on the line through the costs of `whole` and `eighth` (its coefficients
+/// at least 0: more light paths never save work).
+pub(crate) fn rank(whole: &Measured, eighth: &Measured) -> Vec<(u64, f64)> {
+    let (n, m) = (whole.paths as f64, eighth.paths as f64);
+    let slope = if n > m { ((whole.cost - eighth.cost) / (n - m)).max(0.0) } else { 0.0 };
+    let fixed = (whole.cost - slope * n).max(0.0);
+    let product = |d: u64| {
+        let variance = whole.variance + (d - 1) as f64 * whole.merge_variance;
+        variance * (fixed + slope * (whole.paths / d) as f64)
+    };
+    let reference = product(1);
+    DIVISORS
+        .iter()
+        .map(|&d| (whole.paths / d, if reference > 0.0 { product(d) / reference } else { 1.0 }))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn measured(paths: u64, variance: f64, merge_variance: f64, cost: f64) -> Measured {
+        Measured {
+            paths,
+            iterations: 8,
+            variance,
+            merge_variance,
+            light: [0.0; 2],
+            stored: 0.0,
+            eye: [0.0; 3],
+            cost,
+            seconds: [0.0; 2],
+        }
+    }
+
+    /// Where the merges carry the variance the scene's count wins; where the eye does and the
+    /// light paths cost the most, the smallest count.
+    #[test]
+    fn the_ranking_follows_where_variance_and_cost_lie() {
+        // V = 2 of which the merges' 1 at N = 8000: V = 1 + 8000/N. C = 1 + N/8000: 2 at 8000,
+        // 1.125 at 1000.
+        let r = rank(&measured(8000, 2.0, 1.0, 2.0), &measured(1000, 0.0, 0.0, 1.125));
+        // (1 + d)(1 + 1/d): 4 at d = 1, 4.5 at 2, 6.25 at 4, 10.125 at 8.
+        let want = [(8000, 1.0), (4000, 4.5 / 4.0), (2000, 6.25 / 4.0), (1000, 10.125 / 4.0)];
+        for ((m, x), (wm, wx)) in r.iter().zip(want) {
+            assert_eq!(*m, wm);
+            assert!((x - wx).abs() < 1e-12, "{m}: {x} against {wx}");
+        }
+        // The merges' part 1 % of the variance, the photons half the cost: an eighth.
+        let r = rank(&measured(8000, 1.0, 0.01, 2.0), &measured(1000, 0.0, 0.0, 1.125));
+        let best = r.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap().0;
+        assert_eq!(best, 1000);
+        // Costs that do not grow with the light paths: the scene's count, never fewer.
+        let r = rank(&measured(8000, 1.0, 0.01, 2.0), &measured(1000, 0.0, 0.0, 2.5));
+        assert!(r.windows(2).all(|w| w[1].1 > w[0].1), "{r:?}");
+    }
+
+    /// Each pixel's variance is held to the quantile of all of them.
+    #[test]
+    fn a_few_pixels_do_not_decide() {
+        let mut v = vec![1.0; 1999];
+        v.push(1e6);
+        // The 99.9 % quantile of the 2000 pixels is 1: the outlier counts as 1.
+        assert_eq!(capped_sum(v), 2000.0);
+        assert_eq!(capped_sum(Vec::new()), 0.0);
+    }
+
+    /// The pilot's pixels cover the image evenly, about `PILOT_PIXELS` of them, all inside.
+    #[test]
+    fn the_pilots_pixels_cover_the_image() {
+        for (w, h) in [(96, 96), (384, 384), (160, 100), (7, 3), (1000, 20), (250, 141)] {
+            let p = pilot_pixels(w, h, 1);
+            assert!(p.iter().all(|&[x, y]| x < w && y < h));
+            // One per cell, no pixel twice.
+            let mut q = p.clone();
+            q.sort();
+            q.dedup();
+            assert_eq!(q.len(), p.len());
+            let n = p.len() as f64;
+            let all = (w * h) as f64;
+            assert!(n == all || (n > PILOT_PIXELS as f64 * 0.5 && n < PILOT_PIXELS as f64 * 2.5));
+        }
+    }
+}

@@ -1,0 +1,84 @@
+//! The combined integrator's light-path pilot (docs/theory.md, "How many light paths"): it
+//! chooses fewer light paths where the eye paths carry the light and the scene's count where
+//! only photons find it, renders with what it chose, and stays out of the way when the count is
+//! fixed or one technique is checked alone.
+
+use crate::common::scene_path;
+use haze::progress::Silent;
+use haze::settings::{Integrator, PhotonBudget, Techniques};
+use haze::{Budget, RenderSettings, Scene, light_path_budget, render};
+use std::sync::atomic::AtomicBool;
+
+fn scene(name: &str, size: [u32; 2]) -> Scene {
+    let mut s = Scene::load(scene_path(name)).unwrap();
+    s.set_resolution(size).unwrap();
+    s
+}
+
+fn combined(scene: &Scene, photons: u64) -> RenderSettings {
+    RenderSettings {
+        integrator: Integrator::Combined,
+        photons,
+        iterations: Some(2),
+        ..scene.settings.clone()
+    }
+}
+
+fn budget(scene: &Scene, settings: &RenderSettings) -> Budget {
+    light_path_budget(scene, settings, &AtomicBool::new(false)).unwrap().unwrap()
+}
+
+/// In the Cornell box the eye paths with next-event estimation sample the light about as well
+/// as merges do, and the light paths are half the cost of an iteration: fewer of them. In the
+/// volumetric caustic the light reaches the fog through a glass sphere, which no eye path's
+/// next-event estimation can see through: the photons carry it, and the pilot keeps them all.
+#[test]
+fn the_pilot_keeps_light_paths_where_they_carry_the_light() {
+    let box_ = scene("cornell-box.toml", [96, 96]);
+    let b = budget(&box_, &combined(&box_, 12_500));
+    let pilot = b.pilot.as_ref().expect("the pilot ran");
+    assert!(b.paths < 12_500, "cornell-box: {b:?}");
+    // It measured the scene's count and an eighth of it, ranked the scene's count, a half, a
+    // quarter and an eighth of it, and chose the best.
+    let measured: Vec<u64> = pilot.measured.iter().map(|m| m.paths).collect();
+    assert_eq!(measured, [12_500, 1_562]);
+    let ranked: Vec<u64> = pilot.ranked.iter().map(|r| r.0).collect();
+    assert_eq!(ranked, [12_500, 6_250, 3_125, 1_562]);
+    let best = pilot.ranked.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert_eq!(best.0, b.paths);
+    assert_eq!(pilot.ranked[0], (12_500, 1.0));
+    // The merges' part of the variance is part of it.
+    let whole = &pilot.measured[0];
+    assert!(whole.merge_variance > 0.0 && whole.merge_variance < whole.variance, "{whole:?}");
+
+    let caustic = scene("volumetric-caustic.toml", [250, 141]);
+    let b = budget(&caustic, &combined(&caustic, 12_500));
+    assert_eq!(b.paths, 12_500, "volumetric-caustic: {b:?}");
+}
+
+/// The render traces the count the pilot chose, every iteration.
+#[test]
+fn the_render_traces_the_chosen_count() {
+    let s = scene("cornell-box.toml", [32, 32]);
+    let settings = combined(&s, 8_000);
+    let b = budget(&s, &settings);
+    let image = render(&s, &settings, &mut Silent, &AtomicBool::new(false)).unwrap();
+    assert_eq!(image.info.light_paths, 2 * b.paths);
+    assert!(b.paths < 8_000, "{b:?}");
+}
+
+/// `photon_budget = "fixed"` and `only` (one technique alone is checked at the count asked for)
+/// run no pilot; the other integrators have no budget to report.
+#[test]
+fn a_fixed_budget_and_a_technique_alone_run_no_pilot() {
+    let s = scene("cornell-box.toml", [32, 32]);
+    let fixed = RenderSettings { photon_budget: Some(PhotonBudget::Fixed), ..combined(&s, 8_000) };
+    assert_eq!(budget(&s, &fixed), Budget { paths: 8_000, pilot: None });
+    let only = RenderSettings {
+        only: Some("surface+point".parse::<Techniques>().unwrap()),
+        ..combined(&s, 8_000)
+    };
+    assert_eq!(budget(&s, &only), Budget { paths: 8_000, pilot: None });
+    let hybrid = RenderSettings { integrator: Integrator::Hybrid, ..combined(&s, 8_000) };
+    assert!(light_path_budget(&s, &hybrid, &AtomicBool::new(false)).unwrap().is_none());
+}
