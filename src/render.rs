@@ -318,7 +318,7 @@ pub fn light_path_budget(
         return Ok(None);
     }
     let mut combined = crate::integrator::combined::Combined::new(scene, &plan);
-    Ok(combined.budget(scene, stop))
+    Ok(combined.budget(scene, stop).cloned())
 }
 
 /// Physical memory in bytes (Linux: /proc/meminfo), if known.

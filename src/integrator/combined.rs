@@ -158,11 +158,11 @@ impl Combined {
 
     /// The light paths per iteration and how they were chosen (running the pilot if no
     /// iteration has). `None` if `stop` was raised first.
-    pub(crate) fn budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<Budget> {
+    pub(crate) fn budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<&Budget> {
         if self.budget.is_none() {
             self.budget = Some(self.choose_budget(scene, stop)?);
         }
-        self.budget.clone()
+        self.budget.as_ref()
     }
 
     /// The light paths per iteration: the plan's where it fixes them or where nothing merges,

@@ -215,7 +215,6 @@ pub(super) fn choose(
         return Some(Budget { paths: n, pilot: None });
     }
     let clock = Instant::now();
-    let _counting = crate::work::Counting::start();
     let [w, h] = resolution;
     let pixels = pilot_pixels(w, h, seed);
     let scale = (w as f64 * h as f64) / pixels.len() as f64;
