@@ -176,18 +176,19 @@ fn report_budget(b: &haze::Budget, asked: u64) {
         b.paths, p.seconds, p.pixels.0, p.pixels.1
     );
     println!(
-        "| light paths | pilot iterations | variance per iteration (merges' part) | light rays | light steps | stored | eye rays | eye steps | photons found | modelled ms | measured ms (photons + camera) |"
+        "| light paths | pilot iterations | variance per iteration (merges' part) | mean ± standard error | light rays | light steps | stored | eye rays | eye steps | photons found | modelled ms | measured ms (photons + camera) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let scale = p.pixels.1 as f64 / p.pixels.0 as f64;
     for m in &p.measured {
-        let variance = if m.iterations > 1 {
-            format!("{:.4e} ({:.4e})", m.variance, m.merge_variance)
+        let (variance, mean) = if m.iterations > 1 {
+            let v = format!("{:.4e} ({:.4e})", m.variance, m.merge_variance);
+            (v, format!("{:.4e} ± {:.2e}", m.mean[0], m.mean[1]))
         } else {
-            "—".to_string()
+            ("—".to_string(), "—".to_string())
         };
         println!(
-            "| {} | {} | {variance} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.2} | {:.2} + {:.2} |",
+            "| {} | {} | {variance} | {mean} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.2} | {:.2} + {:.2} |",
             m.paths,
             m.iterations,
             m.light[0],

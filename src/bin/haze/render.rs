@@ -282,6 +282,8 @@ fn summary(
             let per = i.light_paths.checked_div(i.iterations).unwrap_or(0);
             let chosen = if per != i.settings.photons && per > 0 {
                 format!(" ({per} per iteration, chosen by the pilot from {})", i.settings.photons)
+            } else if per == 0 && i.iterations > 0 {
+                " (the pilot chose none: the eye's techniques alone, a path tracer)".to_string()
             } else {
                 String::new()
             };

@@ -14,6 +14,13 @@
 //! because what the photons add is heavy-tailed and rare large values are what a few iterations
 //! miss (fog-forward at N/8: 4,391 from the pilot's 8 iterations, 7,240 from 200).
 //!
+//! It also weighs no light paths at all — the eye's techniques alone, a path tracer with
+//! next-event estimation — measuring that variance directly (no merge's part to scale), but
+//! only where the eye's techniques can carry all the light: where no photon of the pilot's
+//! iterations at the scene's count has an empty light side (a photon only a merge can find:
+//! light from a point or spot light by way of a mirror or glass), and where merges are made at
+//! the eye's first vertex only (deeper merges enter the photons' light side).
+//!
 //! Every input is a function of the scene, the settings and the seed, so the choice is the same
 //! on every machine, thread count and split of the render into processes; the clock is read
 //! only to report.
@@ -73,7 +80,8 @@ pub struct Budget {
 /// What the pilot measured.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pilot {
-    /// The counts measured: the scene's, then an eighth of it.
+    /// The counts measured: the scene's, an eighth of it, then none where the eye's techniques
+    /// alone were weighed.
     pub measured: Vec<Measured>,
     /// Each candidate count, with its predicted variance times cost per iteration relative to
     /// the scene's count's, the smaller the better.
@@ -97,11 +105,17 @@ pub struct Measured {
     pub variance: f64,
     /// The same of the merges' part of the image.
     pub merge_variance: f64,
+    /// The image's mean over the pilot's iterations, summed over its pixels and channels, and
+    /// that sum's standard error (from the pixels' variances, uncapped).
+    pub mean: [f64; 2],
     /// Work of one iteration's light paths: rays and tentative collisions (photons found by
     /// the eye are counted with the eye).
     pub light: [f64; 2],
     /// Photons stored per iteration.
     pub stored: f64,
+    /// Of them, those only a merge can carry: their light side is empty (no next-event
+    /// estimation or eye path reaching the light could make their paths).
+    pub merges_only: f64,
     /// Work of one iteration's eye paths over the whole image: rays, tentative collisions,
     /// photons found.
     pub eye: [f64; 3],
@@ -119,13 +133,14 @@ pub(super) struct Tallies {
     light: Work,
     eye: Work,
     stored: u64,
+    merges_only: u64,
     seconds: [f64; 2],
     iterations: u64,
 }
 
-/// One pilot iteration's photon pass: the work of its light paths, the photons stored and the
-/// seconds it took.
-pub(super) type PhotonPassDone = (Work, u64, f64);
+/// One pilot iteration's photon pass: the work of its light paths, the photons stored, those of
+/// them only a merge can carry (an empty light side) and the seconds it took.
+pub(super) type PhotonPassDone = (Work, u64, u64, f64);
 
 impl Tallies {
     /// None yet, over `pixels` pixels.
@@ -135,6 +150,7 @@ impl Tallies {
             light: Work::default(),
             eye: Work::default(),
             stored: 0,
+            merges_only: 0,
             seconds: [0.0; 2],
             iterations: 0,
         }
@@ -149,9 +165,10 @@ impl Tallies {
         pixels: &[(Rgb, Rgb, Work)],
         camera: f64,
     ) {
-        let (light, stored, seconds) = photons;
+        let (light, stored, merges_only, seconds) = photons;
         self.light += light;
         self.stored += stored;
+        self.merges_only += merges_only;
         self.seconds[0] += seconds;
         self.seconds[1] += camera;
         self.iterations += 1;
@@ -171,18 +188,21 @@ impl Tallies {
             let (s, s2) = (sum.as_dvec3(), squares.as_dvec3());
             ((s2 - s * s / k) / (k - 1.0)).max(glam::DVec3::ZERO).element_sum()
         };
-        let (variance, merge_variance) = if self.iterations < 2 {
-            (0.0, 0.0)
+        let (variance, merge_variance, mean) = if self.iterations < 2 {
+            (0.0, 0.0, [0.0; 2])
         } else {
             let all: Vec<f64> = self.sums.iter().map(|s| variance(s[0], s[1])).collect();
             let merged: Vec<f64> = self.sums.iter().map(|s| variance(s[2], s[3])).collect();
-            (capped_sum(all), capped_sum(merged))
+            let sum: f64 = self.sums.iter().map(|s| s[0].as_dvec3().element_sum()).sum();
+            let error = (all.iter().sum::<f64>() / k).sqrt();
+            (capped_sum(all), capped_sum(merged), [sum / k, error])
         };
         let per = |x: u64| x as f64 / k;
         let light = [per(self.light.rays), per(self.light.steps)];
         let eye = self.eye;
         let eye = [per(eye.rays) * scale, per(eye.steps) * scale, per(eye.found) * scale];
         let stored = per(self.stored);
+        let merges_only = per(self.merges_only);
         let cost = NS_PER_RAY * (light[0] + eye[0])
             + NS_PER_STEP * (light[1] + eye[1])
             + NS_PER_FOUND * eye[2]
@@ -192,8 +212,10 @@ impl Tallies {
             iterations: self.iterations,
             variance,
             merge_variance,
+            mean,
             light,
             stored,
+            merges_only,
             eye,
             cost,
             seconds: self.seconds.map(|s| s / k),
@@ -203,11 +225,13 @@ impl Tallies {
 
 /// The pilot for a render of `n` light paths per iteration at `resolution`, its pixels drawn
 /// from `seed`: `iterate(paths, iterations, pixels)` renders that many pilot iterations (at
-/// the radii of [`PILOT_ITERATION`] on) over the pixels. `None` if it returned `None` (a stop).
+/// the radii of [`PILOT_ITERATION`] on) over the pixels. With `eye_alone` it may choose no
+/// light paths (the module's notes say when). `None` if `iterate` returned `None` (a stop).
 pub(super) fn choose(
     n: u64,
     resolution: [u32; 2],
     seed: u64,
+    eye_alone: bool,
     mut iterate: impl FnMut(u64, u64, &[[u32; 2]]) -> Option<Tallies>,
 ) -> Option<Budget> {
     let eighth = DIVISORS[DIVISORS.len() - 1];
@@ -220,10 +244,16 @@ pub(super) fn choose(
     let scale = (w as f64 * h as f64) / pixels.len() as f64;
     let whole = iterate(n, PILOT_ITERATIONS, &pixels)?.measured(n, scale);
     let fewest = iterate(n / eighth, COST_ITERATIONS, &pixels)?.measured(n / eighth, scale);
-    let ranked = rank(&whole, &fewest);
-    let best = ranked.iter().min_by(|a, b| a.1.total_cmp(&b.1)).map_or(n, |p| p.0);
+    let zero = if eye_alone && whole.merges_only == 0.0 {
+        Some(iterate(0, PILOT_ITERATIONS, &pixels)?.measured(0, scale))
+    } else {
+        None
+    };
+    let eye_sees = zero.as_ref().filter(|z| sees_the_light(&whole, z));
+    let ranked = rank(&whole, &fewest, eye_sees);
+    let best = pick(&ranked).unwrap_or(n);
     let pilot = Pilot {
-        measured: vec![whole, fewest],
+        measured: [whole, fewest].into_iter().chain(zero).collect(),
         ranked,
         pixels: (pixels.len(), (w * h) as usize),
         seconds: clock.elapsed().as_secs_f64(),
@@ -268,11 +298,58 @@ fn pilot_pixels(w: u32, h: u32, seed: u64) -> Vec<[u32; 2]> {
         .collect()
 }
 
+/// How far below the image's mean with the scene's light paths the eye's techniques alone may
+/// fall, in standard errors of the difference, before the pilot takes them to have missed light.
+const EYE_MISSES_Z: f64 = 3.0;
+
+/// The shortfall of the eye's mean, as a fraction of the image's, that the comparison must be
+/// able to see at [`EYE_MISSES_Z`]; where the pilot's means are too noisy for that, the eye
+/// alone is not weighed.
+const EYE_MISSES_FRACTION: f64 = 0.1;
+
+/// Whether the eye's techniques alone (`zero`) found the light the scene's count (`whole`)
+/// did: their mean over the pilot's pixels is not below the other's by more than
+/// [`EYE_MISSES_Z`] standard errors of the difference, and those errors are small enough to see
+/// a shortfall of [`EYE_MISSES_FRACTION`]. The census of photons only a merge can carry finds
+/// light the eye can never sample; this finds light it samples too rarely for the pilot's
+/// iterations to see, whose variance those few iterations would put far too low (dense-fog: the
+/// eye's mean over the pilot's pixels 3.4 ± 2.1 against 36 ± 19 with the light paths, and its
+/// variance, held to the pixels' 99.9 % quantile, 4 · 10⁻⁵ of theirs).
+fn sees_the_light(whole: &Measured, zero: &Measured) -> bool {
+    let ([a, ea], [b, eb]) = (whole.mean, zero.mean);
+    let error = EYE_MISSES_Z * (ea * ea + eb * eb).sqrt();
+    zero.variance > 0.0 && error <= EYE_MISSES_FRACTION * a && a - b <= error
+}
+
+/// No light paths are chosen only where their predicted variance × cost is below this share of
+/// the best count's. Their variance is measured from 8 iterations, where the counts' comes from
+/// the merges' part at the scene's count, and the eye alone has no merges to fall back on where
+/// it samples badly. Measured at equal time (docs/performance.md, "No light paths"), the eye
+/// alone did better than the best count where it promised 0.68–0.77 of its product (cornell-box,
+/// cornell-cloud, vdb-edges, vdb-cloud) and worse on thin-fog, at 0.92 (6.18 % against 5.46 %).
+const EYE_ALONE_MARGIN: f64 = 0.8;
+
+/// The count to render with from [`rank`]'s list: the best of the counts, or none where that
+/// was ranked ahead of it by [`EYE_ALONE_MARGIN`]. `None` for an empty list.
+fn pick(ranked: &[(u64, f64)]) -> Option<u64> {
+    let (zero, counts): (Vec<&(u64, f64)>, Vec<_>) = ranked.iter().partition(|r| r.0 == 0);
+    let best = counts.into_iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    match zero.first() {
+        Some(z) if z.1 < EYE_ALONE_MARGIN * best.1 => Some(0),
+        _ => Some(best.0),
+    }
+}
+
 /// Each candidate count n/d, d in [`DIVISORS`], with its predicted variance times cost per
 /// iteration relative to count n's: the variance V + (d − 1) V_M from the scene's count
 /// (`whole`), the cost on the line through the costs of `whole` and `eighth` (its coefficients
-/// at least 0: more light paths never save work).
-pub(crate) fn rank(whole: &Measured, eighth: &Measured) -> Vec<(u64, f64)> {
+/// at least 0: more light paths never save work); then, if measured (`zero`), no light paths,
+/// its variance and cost as measured.
+pub(crate) fn rank(
+    whole: &Measured,
+    eighth: &Measured,
+    zero: Option<&Measured>,
+) -> Vec<(u64, f64)> {
     let (n, m) = (whole.paths as f64, eighth.paths as f64);
     let slope = if n > m { ((whole.cost - eighth.cost) / (n - m)).max(0.0) } else { 0.0 };
     let fixed = (whole.cost - slope * n).max(0.0);
@@ -281,10 +358,9 @@ pub(crate) fn rank(whole: &Measured, eighth: &Measured) -> Vec<(u64, f64)> {
         variance * (fixed + slope * (whole.paths / d) as f64)
     };
     let reference = product(1);
-    DIVISORS
-        .iter()
-        .map(|&d| (whole.paths / d, if reference > 0.0 { product(d) / reference } else { 1.0 }))
-        .collect()
+    let relative = |x: f64| if reference > 0.0 { x / reference } else { 1.0 };
+    let counts = DIVISORS.iter().map(|&d| (whole.paths / d, relative(product(d))));
+    counts.chain(zero.map(|z| (0, relative(z.variance * z.cost)))).collect()
 }
 
 #[cfg(test)]
@@ -297,8 +373,10 @@ mod tests {
             iterations: 8,
             variance,
             merge_variance,
+            mean: [0.0; 2],
             light: [0.0; 2],
             stored: 0.0,
+            merges_only: 0.0,
             eye: [0.0; 3],
             cost,
             seconds: [0.0; 2],
@@ -311,7 +389,7 @@ mod tests {
     fn the_ranking_follows_where_variance_and_cost_lie() {
         // V = 2 of which the merges' 1 at N = 8000: V = 1 + 8000/N. C = 1 + N/8000: 2 at 8000,
         // 1.125 at 1000.
-        let r = rank(&measured(8000, 2.0, 1.0, 2.0), &measured(1000, 0.0, 0.0, 1.125));
+        let r = rank(&measured(8000, 2.0, 1.0, 2.0), &measured(1000, 0.0, 0.0, 1.125), None);
         // (1 + d)(1 + 1/d): 4 at d = 1, 4.5 at 2, 6.25 at 4, 10.125 at 8.
         let want = [(8000, 1.0), (4000, 4.5 / 4.0), (2000, 6.25 / 4.0), (1000, 10.125 / 4.0)];
         for ((m, x), (wm, wx)) in r.iter().zip(want) {
@@ -319,12 +397,50 @@ mod tests {
             assert!((x - wx).abs() < 1e-12, "{m}: {x} against {wx}");
         }
         // The merges' part 1 % of the variance, the photons half the cost: an eighth.
-        let r = rank(&measured(8000, 1.0, 0.01, 2.0), &measured(1000, 0.0, 0.0, 1.125));
+        let r = rank(&measured(8000, 1.0, 0.01, 2.0), &measured(1000, 0.0, 0.0, 1.125), None);
         let best = r.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap().0;
         assert_eq!(best, 1000);
         // Costs that do not grow with the light paths: the scene's count, never fewer.
-        let r = rank(&measured(8000, 1.0, 0.01, 2.0), &measured(1000, 0.0, 0.0, 2.5));
+        let r = rank(&measured(8000, 1.0, 0.01, 2.0), &measured(1000, 0.0, 0.0, 2.5), None);
         assert!(r.windows(2).all(|w| w[1].1 > w[0].1), "{r:?}");
+    }
+
+    /// No light paths rank by their own measured variance and cost, after the counts.
+    #[test]
+    fn no_light_paths_rank_by_their_own_measurement() {
+        let (whole, eighth) = (measured(8000, 2.0, 1.0, 2.0), measured(1000, 0.0, 0.0, 1.125));
+        // Against V C = 4 at the scene's count: 1.5 · 1 (the eye alone) is 0.375 of it …
+        let r = rank(&whole, &eighth, Some(&measured(0, 1.5, 0.0, 1.0)));
+        assert_eq!(r.len(), DIVISORS.len() + 1);
+        assert_eq!(r[DIVISORS.len()], (0, 0.375));
+        assert_eq!(pick(&r), Some(0));
+        // … and 5 · 1 is 1.25, behind the scene's count.
+        let r = rank(&whole, &eighth, Some(&measured(0, 5.0, 0.0, 1.0)));
+        assert_eq!(pick(&r), Some(8000));
+        // Ahead of the best count, but not by the margin: the count.
+        let r = [(8000, 1.0), (4000, 0.5), (0, 0.41)];
+        assert_eq!(pick(&r), Some(4000));
+        let r = [(8000, 1.0), (4000, 0.5), (0, 0.39)];
+        assert_eq!(pick(&r), Some(0));
+    }
+
+    /// The eye alone is taken to have missed light where its mean falls more than 3 standard
+    /// errors below the scene's count's, where those errors could not see a tenth of the light
+    /// missing, or where it saw nothing vary at all.
+    #[test]
+    fn an_eye_that_misses_the_light_is_not_weighed() {
+        let at =
+            |mean: [f64; 2], variance: f64| Measured { mean, ..measured(0, variance, 0.0, 1.0) };
+        let whole = at([200.0, 3.0], 1.0);
+        // The difference's standard error is 5: 14.9 below is within 3 of them, 15.1 is not.
+        assert!(sees_the_light(&whole, &at([185.1, 4.0], 1.0)));
+        assert!(!sees_the_light(&whole, &at([184.9, 4.0], 1.0)));
+        // Above is never missed light.
+        assert!(sees_the_light(&whole, &at([230.0, 4.0], 1.0)));
+        // No variance: nothing was found.
+        assert!(!sees_the_light(&whole, &at([200.0, 0.0], 0.0)));
+        // Three errors of 5 are more than a tenth of 140: too noisy to tell.
+        assert!(!sees_the_light(&at([140.0, 3.0], 1.0), &at([140.0, 4.0], 1.0)));
     }
 
     /// Each pixel's variance is held to the quantile of all of them.
