@@ -140,9 +140,9 @@ choices! {
 choices! {
     /// How the combined integrator sets its light paths per iteration.
     pub enum PhotonBudget ("photon_budget") {
-        /// A pilot before the first iteration measures 1, 1/2, 1/4 and 1/8 of `photons` and
-        /// picks the count that reaches a given error soonest (the default; docs/theory.md,
-        /// "How many light paths").
+        /// A pilot before the first iteration weighs 1, 1/2, 1/4 and 1/8 of `photons`, and none
+        /// where the eye's techniques alone can carry the light, and picks the count that
+        /// reaches a given error soonest (the default; docs/theory.md, "How many light paths").
         Pilot = "pilot",
         /// `photons`, as set.
         Fixed = "fixed",
@@ -582,8 +582,8 @@ render_settings! {
     merges: Merges, optional = None, any;
 
     /// With the combined integrator, how its light paths per iteration are set: `pilot` (the
-    /// default), a pilot before the first iteration picks 1, 1/2, 1/4 or 1/8 of `photons`; or
-    /// `fixed`, `photons` as set. The other integrators ignore it.
+    /// default), a pilot before the first iteration picks 1, 1/2, 1/4 or 1/8 of `photons`, or
+    /// none where the eye's techniques alone carry all the light; or `fixed`, `photons` as set. The other integrators ignore it.
     [long, value_name = "HOW"]
     photon_budget: PhotonBudget, optional = None, any;
 }

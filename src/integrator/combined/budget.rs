@@ -1,8 +1,9 @@
 //! How many light paths the combined integrator traces per iteration: a pilot that renders,
 //! before the first iteration, a few iterations with the scene's count and two with an eighth
 //! of it, predicts the variance and the cost of an iteration with 1, 1/2, 1/4 and 1/8 of the
-//! count, and picks the count whose variance times cost is the smallest — the one that reaches a
-//! given error soonest (docs/theory.md, "How many light paths").
+//! count (and, where it may, of none), and picks the count whose variance times cost is the
+//! smallest — the one that reaches a given error soonest (docs/theory.md, "How many light
+//! paths").
 //!
 //! At the scene's count N it measures, over a sparse set of pixels, the variance V of an
 //! iteration and the variance V_M of the merges' part of it. The merges' part is a mean over the
