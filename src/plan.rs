@@ -99,6 +99,8 @@ pub(crate) struct Plan {
     /// Merge at every eye vertex (`Merges::Everywhere`), not only the first (the combined
     /// integrator).
     pub merge_everywhere: bool,
+    /// End the eye path at its first merge (`Merges::Last`; the combined integrator).
+    pub merge_last: bool,
     /// Let a pilot choose the light paths per iteration among fractions of `paths` (the
     /// combined integrator, with every technique counting).
     pub budget_pilot: bool,
@@ -153,6 +155,14 @@ impl Plan {
                 "only: only the combined integrator (integrator = \"combined\") has techniques to choose from".into(),
             ));
         }
+        if settings.merges == Some(Merges::Last)
+            && method == MethodKind::Combined
+            && scene.has_emissive_media()
+        {
+            return Err(Error::Settings(
+                "merges: \"last\" ends every eye path at its first merge, and the light paths leave the light of emitting media to the eye paths: use \"first\" or \"everywhere\" in a scene whose media emit".into(),
+            ));
+        }
         let hybrid = settings.integrator == Integrator::Hybrid;
         Ok(Self {
             method,
@@ -180,6 +190,7 @@ impl Plan {
             // A choice of the combined integrator's, which the others ignore (a scene can set
             // it for the combined integrator and still be rendered with another).
             merge_everywhere: settings.merges == Some(Merges::Everywhere),
+            merge_last: settings.merges == Some(Merges::Last),
             // Each technique alone is a check of that technique at the count asked for.
             budget_pilot: method == MethodKind::Combined
                 && settings.photon_budget != Some(PhotonBudget::Fixed)

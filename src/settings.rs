@@ -134,6 +134,11 @@ choices! {
         /// merging techniques. Each iteration costs more; less noisy per iteration in dense,
         /// bright or strongly anisotropic media (docs/performance.md, "Where the eye merges").
         Everywhere = "everywhere",
+        /// At the first vertex only, where the eye path ends: its merges carry all the light
+        /// but the direct light, which they share with next-event estimation there — photon
+        /// mapping with the direct light weighed by MIS, the cheapest eye path (docs/theory.md,
+        /// "Where the eye merges").
+        Last = "last",
     }
 }
 

@@ -856,7 +856,7 @@ fn combined_preset(name: &str, base: &RenderSettings) -> Vec<Series> {
         Series { label, settings: s }
     };
     if name == "merges" {
-        [Merges::First, Merges::Everywhere]
+        [Merges::First, Merges::Everywhere, Merges::Last]
             .iter()
             .map(|&m| with(format!("combined, merges {}", m.name()), &|s| s.merges = Some(m)))
             .collect()
@@ -908,7 +908,8 @@ mod tests {
         let got: Vec<_> =
             series.iter().map(|s| (s.settings.integrator, s.settings.merges)).collect();
         let combined = Integrator::Combined;
-        assert_eq!(got, [(combined, Some(Merges::First)), (combined, Some(Merges::Everywhere))]);
+        let want = [Merges::First, Merges::Everywhere, Merges::Last].map(|m| (combined, Some(m)));
+        assert_eq!(got, want);
         for s in &series {
             s.settings.validate().unwrap();
         }

@@ -120,3 +120,16 @@ fn a_fixed_budget_and_a_technique_alone_run_no_pilot() {
     let hybrid = RenderSettings { integrator: Integrator::Hybrid, ..combined(&s, 8_000) };
     assert!(light_path_budget(&s, &hybrid, &AtomicBool::new(false)).unwrap().is_none());
 }
+
+/// `merges = "last"` ends every eye path at its first merge, and the light paths leave the
+/// light of emitting media to the eye paths: a scene whose media emit refuses it, by name.
+#[test]
+fn ending_at_the_first_merge_refuses_emitting_media() {
+    let fire = scene("fire.toml", [16, 16]);
+    let last = RenderSettings { merges: Some(Merges::Last), ..combined(&fire, 1_000) };
+    let err = render(&fire, &last, &mut Silent, &AtomicBool::new(false)).unwrap_err();
+    assert!(err.to_string().contains("merges: \"last\""), "{err}");
+    // The other integrators ignore the setting.
+    let hybrid = RenderSettings { integrator: Integrator::Hybrid, iterations: Some(1), ..last };
+    render(&fire, &hybrid, &mut Silent, &AtomicBool::new(false)).unwrap();
+}

@@ -458,6 +458,18 @@ fn merging_everywhere_matches_the_path_traced_references() {
     judge_cases(&cases, 8);
 }
 
+/// Eye paths that end at their first merge (`merges = "last"`: photon mapping with the direct
+/// light weighed by MIS) against the same references: the merges carry all but the direct light,
+/// weighed against next-event estimation for the light paths' first vertices only, so a wrong
+/// light side or a weight left to the eye reaching the light biases the image here.
+#[test]
+fn ending_at_the_first_merge_matches_the_path_traced_references() {
+    use haze::settings::Merges;
+    let cases = ["cornell-fog", "vdb-cloud", "spotlight-fog"]
+        .map(|name| combined(name, |s| s.merges = Some(Merges::Last), true));
+    judge_cases(&cases, 8);
+}
+
 /// Each of the combined integrator's techniques alone (`only`, weight 1), against the committed
 /// path-traced references as in [`the_combined_integrator_matches_the_path_traced_references`]:
 /// the eye path reaching the light (`hit`, cornell-fog's area light), next-event estimation
