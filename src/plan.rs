@@ -140,29 +140,7 @@ impl Plan {
             (_, Progression::Probabilistic) => MethodKind::PhotonMapping,
             (_, Progression::Original) => MethodKind::Original,
         };
-        if method == MethodKind::Original && !scene.media.is_empty() {
-            return Err(Error::Settings(
-                "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")".into(),
-            ));
-        }
-        if settings.techniques && method != MethodKind::Combined {
-            return Err(Error::Settings(
-                "techniques: only the combined integrator (integrator = \"combined\") weighs techniques against each other".into(),
-            ));
-        }
-        if settings.only.is_some() && method != MethodKind::Combined {
-            return Err(Error::Settings(
-                "only: only the combined integrator (integrator = \"combined\") has techniques to choose from".into(),
-            ));
-        }
-        if settings.merges == Some(Merges::Last)
-            && method == MethodKind::Combined
-            && scene.has_emissive_media()
-        {
-            return Err(Error::Settings(
-                "merges: \"last\" ends every eye path at its first merge, and the light paths leave the light of emitting media to the eye paths: use \"first\" or \"everywhere\" in a scene whose media emit".into(),
-            ));
-        }
+        check_method(scene, settings, method)?;
         let hybrid = settings.integrator == Integrator::Hybrid;
         Ok(Self {
             method,
@@ -211,6 +189,33 @@ impl Plan {
 }
 
 /// Refuses initial radii too small for the scene (see [`MIN_RADIUS_FRACTION`]).
+/// The settings that only some methods take, or that a scene rules out, against `method`.
+fn check_method(scene: &Scene, settings: &RenderSettings, method: MethodKind) -> Result<()> {
+    let refuse = |m: &str| Err(Error::Settings(m.into()));
+    let combined = method == MethodKind::Combined;
+    if method == MethodKind::Original && !scene.media.is_empty() {
+        return refuse(
+            "progression: \"original\" is a comparison mode for the surface estimate; this scene has media (use \"probabilistic\")",
+        );
+    }
+    if settings.techniques && !combined {
+        return refuse(
+            "techniques: only the combined integrator (integrator = \"combined\") weighs techniques against each other",
+        );
+    }
+    if settings.only.is_some() && !combined {
+        return refuse(
+            "only: only the combined integrator (integrator = \"combined\") has techniques to choose from",
+        );
+    }
+    if settings.merges == Some(Merges::Last) && combined && scene.has_emissive_media() {
+        return refuse(
+            "merges: \"last\" ends every eye path at its first merge, and the light paths leave the light of emitting media to the eye paths: use \"first\" or \"everywhere\" in a scene whose media emit",
+        );
+    }
+    Ok(())
+}
+
 fn check_radii(diagonal: f64, surface: &Schedule, volume: &Schedule) -> Result<()> {
     for (key, r) in [("radius", surface.initial), ("volume_radius", volume.initial)] {
         if r < MIN_RADIUS_FRACTION * diagonal {
