@@ -96,11 +96,8 @@ pub(crate) struct Plan {
     pub techniques: bool,
     /// Count only these techniques, each with weight 1 (the combined integrator).
     pub only: Option<Techniques>,
-    /// Merge at every eye vertex (`Merges::Everywhere`), not only the first (the combined
-    /// integrator).
-    pub merge_everywhere: bool,
-    /// End the eye path at its first merge (`Merges::Last`; the combined integrator).
-    pub merge_last: bool,
+    /// Where the combined integrator's eye paths merge (`Merges::First` where not set).
+    pub merges: Merges,
     /// Let a pilot choose the light paths per iteration among fractions of `paths` (the
     /// combined integrator, with every technique counting).
     pub budget_pilot: bool,
@@ -167,8 +164,7 @@ impl Plan {
             only: settings.only,
             // A choice of the combined integrator's, which the others ignore (a scene can set
             // it for the combined integrator and still be rendered with another).
-            merge_everywhere: settings.merges == Some(Merges::Everywhere),
-            merge_last: settings.merges == Some(Merges::Last),
+            merges: settings.merges.unwrap_or(Merges::First),
             // Each technique alone is a check of that technique at the count asked for.
             budget_pilot: method == MethodKind::Combined
                 && settings.photon_budget != Some(PhotonBudget::Fixed)
@@ -188,7 +184,6 @@ impl Plan {
     }
 }
 
-/// Refuses initial radii too small for the scene (see [`MIN_RADIUS_FRACTION`]).
 /// The settings that only some methods take, or that a scene rules out, against `method`.
 fn check_method(scene: &Scene, settings: &RenderSettings, method: MethodKind) -> Result<()> {
     let refuse = |m: &str| Err(Error::Settings(m.into()));
@@ -216,6 +211,7 @@ fn check_method(scene: &Scene, settings: &RenderSettings, method: MethodKind) ->
     Ok(())
 }
 
+/// Refuses initial radii too small for the scene (see [`MIN_RADIUS_FRACTION`]).
 fn check_radii(diagonal: f64, surface: &Schedule, volume: &Schedule) -> Result<()> {
     for (key, r) in [("radius", surface.initial), ("volume_radius", volume.initial)] {
         if r < MIN_RADIUS_FRACTION * diagonal {

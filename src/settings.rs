@@ -136,7 +136,7 @@ choices! {
         Everywhere = "everywhere",
         /// At the first vertex only, where the eye path ends: its merges carry all the light
         /// but the direct light, which they share with next-event estimation there — photon
-        /// mapping with the direct light weighed by MIS, the cheapest eye path (docs/theory.md,
+        /// mapping with the direct light weighed by MIS, the cheapest eye path (docs/performance.md,
         /// "Where the eye merges").
         Last = "last",
     }
@@ -588,7 +588,8 @@ render_settings! {
 
     /// With the combined integrator, how its light paths per iteration are set: `pilot` (the
     /// default), a pilot before the first iteration picks 1, 1/2, 1/4 or 1/8 of `photons`, or
-    /// none where the eye's techniques alone carry all the light; or `fixed`, `photons` as set. The other integrators ignore it.
+    /// none where the eye's techniques alone carry all the light; or `fixed`, `photons` as set.
+    /// The other integrators ignore it.
     [long, value_name = "HOW"]
     photon_budget: PhotonBudget, optional = None, any;
 }

@@ -39,7 +39,7 @@ use crate::plan::{Plan, Radii};
 use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
-use crate::settings::{Technique, Techniques};
+use crate::settings::{Merges, Technique, Techniques};
 use crate::work::Work;
 pub(crate) use budget::Budget;
 use budget::Tallies;
@@ -176,8 +176,7 @@ impl Combined {
         // The eye's techniques alone, where they count: next-event estimation and the eye
         // reaching the light, with merges at the first vertex only (deeper ones are on the
         // photons' light side, which the pilot's census reads).
-        let eye_alone = !self.plan.merge_everywhere
-            && !self.plan.merge_last
+        let eye_alone = self.plan.merges == Merges::First
             && self.counts(Technique::Nee)
             && self.counts(Technique::Hit);
         let resolution = scene.camera.resolution;
@@ -228,7 +227,7 @@ impl Combined {
 
     /// Whether technique `t` counts (`Plan::only`).
     fn counts(&self, t: Technique) -> bool {
-        self.plan.only.is_none_or(|o: Techniques| o.contains(t))
+        counts(self.plan.only, t)
     }
 
     /// Whether any merge counts: else no photon is traced.
@@ -253,7 +252,8 @@ impl Combined {
         // estimate without a final gather; deeper merges come after the eye path's own sampling,
         // which the densities in the weights do not see as noise, and each costs a query
         // (`Merges`; docs/performance.md, "Where the eye merges", measures both).
-        let kernels = Kernels::new(paths, radii.surface, radii.volume, self.plan.merge_everywhere);
+        let deep = self.plan.merges == Merges::Everywhere;
+        let kernels = Kernels::new(paths, radii.surface, radii.volume, deep);
         let clock = Instant::now();
         let pass = PhotonPass {
             seed,
@@ -292,6 +292,7 @@ impl Combined {
         paths: u64,
         kernels: Kernels,
     ) -> Context<'a> {
+        let last = self.plan.merges == Merges::Last;
         Context {
             scene,
             surface: &self.surface_map,
@@ -313,12 +314,12 @@ impl Combined {
             // With only merges, and merges at the first vertex only, nothing deeper counts
             // (but the light of emitting media); with `merges = "last"` nothing deeper is
             // weighed either.
-            ends_at_merge: self.plan.merge_last
+            ends_at_merge: last
                 || !kernels.deep
                     && !scene.has_emissive_media()
                     && !self.counts(Technique::Hit)
                     && !self.counts(Technique::Nee),
-            last: self.plan.merge_last,
+            last,
         }
     }
 
@@ -409,7 +410,7 @@ struct Context<'a> {
 impl Context<'_> {
     /// Whether technique `t` counts.
     fn counts(&self, t: Technique) -> bool {
-        self.only.is_none_or(|o| o.contains(t))
+        counts(self.only, t)
     }
 
     /// A photon's light side as the eye's techniques see it: with `last`, next-event estimation
@@ -685,8 +686,9 @@ impl CombinedEye<'_> {
     /// free flight, P = 1 − T, leaves every surface behind a thin medium with the variance of a
     /// coin toss, though the light the medium scatters on the way is mostly the beam's
     /// whatever the path does. (In a grid, distances ∝ T land in its empty space.) The weights
-    /// see the collision's density, `share` times free flight's ([`collision_share`]). `tr` is
-    /// `None` where the segment's transmittance was not estimated (a grid's, unneeded).
+    /// see the collision's density, `share` times free flight's ([`collision_share`]). `tr`,
+    /// the segment's transmittance, is read in a homogeneous medium only (where it is always
+    /// estimated).
     fn collide(
         &self,
         path: &mut EyePath,
@@ -695,14 +697,11 @@ impl CombinedEye<'_> {
         t_max: f32,
         share: f32,
     ) -> Option<f32> {
-        let tr = match tr {
-            Some(SegmentTransmittance::Steps(_)) | None => {
-                let (o, d) = (path.ray.o, path.ray.d);
-                let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
-                path.beta *= flight.weight;
-                return flight.scattered.then_some(flight.t);
-            }
-            Some(tr) => tr,
+        let (Medium::Homogeneous(_), Some(tr)) = (m, tr) else {
+            let (o, d) = (path.ray.o, path.ray.d);
+            let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
+            path.beta *= flight.weight;
+            return flight.scattered.then_some(flight.t);
         };
         let end = tr.at(t_max);
         let p = share.clamp(0.0, 1.0).powi(2);
@@ -842,6 +841,11 @@ impl CombinedEye<'_> {
 /// its "cosine", the eye's density factor of the light's vertex, times them.
 fn crossing(e: Emitted, crossed: f32) -> Emitted {
     Emitted { cos: e.cos * crossed, ..e }
+}
+
+/// Whether technique `t` counts where `only` (`RenderSettings::only`) names the ones that do.
+fn counts(only: Option<Techniques>, t: Technique) -> bool {
+    only.is_none_or(|o| o.contains(t))
 }
 
 /// The rate of the ratio tracking that estimates a grid's transmittance along an eye segment

@@ -902,27 +902,26 @@ mod tests {
         assert!((fit_slope(&pts).unwrap() + 0.4).abs() < 1e-12);
     }
 
+    /// The series of comparison `name`, each as its integrator and the setting `field` reads;
+    /// every one valid.
+    fn series_of<T>(name: &str, field: fn(&RenderSettings) -> T) -> Vec<(Integrator, T)> {
+        let series = preset(name, &RenderSettings::default()).unwrap();
+        series.iter().for_each(|s| s.settings.validate().unwrap());
+        series.iter().map(|s| (s.settings.integrator, field(&s.settings))).collect()
+    }
+
     #[test]
     fn the_merges_comparison_sets_the_combined_integrator() {
-        let series = preset("merges", &RenderSettings::default()).unwrap();
-        let got: Vec<_> =
-            series.iter().map(|s| (s.settings.integrator, s.settings.merges)).collect();
         let combined = Integrator::Combined;
         let want = [Merges::First, Merges::Everywhere, Merges::Last].map(|m| (combined, Some(m)));
-        assert_eq!(got, want);
-        for s in &series {
-            s.settings.validate().unwrap();
-        }
+        assert_eq!(series_of("merges", |s| s.merges), want);
     }
 
     #[test]
     fn the_photon_budget_comparison_sets_the_combined_integrator() {
-        let series = preset("photon-budget", &RenderSettings::default()).unwrap();
-        let got: Vec<_> =
-            series.iter().map(|s| (s.settings.integrator, s.settings.photon_budget)).collect();
         let combined = Integrator::Combined;
         let want = [(combined, Some(PhotonBudget::Pilot)), (combined, Some(PhotonBudget::Fixed))];
-        assert_eq!(got, want);
+        assert_eq!(series_of("photon-budget", |s| s.photon_budget), want);
         // The photons comparison compares the counts themselves.
         let counts = preset("photons", &RenderSettings::default()).unwrap();
         assert!(counts.iter().all(|s| s.settings.photon_budget == Some(PhotonBudget::Fixed)));

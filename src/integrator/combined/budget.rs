@@ -101,8 +101,8 @@ pub struct Measured {
     /// Pilot iterations rendered with them.
     pub iterations: u64,
     /// The variance of one iteration's image, summed over the pilot's pixels and channels,
-    /// each pixel's held to at most the 99.9 % quantile of the pixels' (the scene's count
-    /// only; 0 for the other).
+    /// each pixel's held to at most the 99.9 % quantile of the pixels' (0 from fewer than two
+    /// iterations).
     pub variance: f64,
     /// The same of the merges' part of the image.
     pub merge_variance: f64,
