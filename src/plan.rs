@@ -17,8 +17,8 @@ use crate::estimate::kernel::Kernel;
 use crate::estimate::radius::radius;
 use crate::scene::Scene;
 use crate::settings::{
-    Integrator, Merges, PhotonBudget, PhotonGuiding, Progression, RenderSettings, Techniques,
-    VolumeEstimate,
+    Integrator, Merges, PhotonBudget, PhotonGuiding, PhotonSplitting, Progression, RenderSettings,
+    Techniques, VolumeEstimate,
 };
 
 /// The smallest initial radius accepted, relative to the scene's bounding-box diagonal: below it
@@ -88,6 +88,9 @@ pub(crate) struct Plan {
     /// Guide photon emission by a pilot pass: asked for, probabilistic PPM, and no emitting
     /// media (their photons are not guided, and with them in the scene nothing is).
     pub guiding: bool,
+    /// Split light paths by importance (photon mapping and the combined integrator, in scenes
+    /// with media).
+    pub splitting: bool,
     /// The surface schedule (dimension 2) …
     pub surface: Schedule,
     /// … and the volume schedule, for both volume estimates.
@@ -154,6 +157,10 @@ impl Plan {
             estimate: settings.volume_estimate,
             beam_cell_budget: settings.beam_cell_budget,
             // The original PPM, a comparison mode, stays the classic method.
+            splitting: settings.photon_splitting == PhotonSplitting::Importance
+                && matches!(method, MethodKind::PhotonMapping | MethodKind::Combined)
+                && settings.progression == Progression::Probabilistic
+                && scene.has_media(),
             guiding: settings.photon_guiding == PhotonGuiding::Visibility
                 && method == MethodKind::PhotonMapping
                 && settings.progression == Progression::Probabilistic

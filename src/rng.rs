@@ -26,6 +26,9 @@ pub enum Purpose {
     EmitterPool = 6,
     /// Where the combined integrator's light-path pilot puts its pixels.
     Pilot = 7,
+    /// The copies a light path splits into (`photon/importance.rs`), keyed by the path and the
+    /// copy's number.
+    Split = 8,
 }
 
 /// A portable seeded generator (xoshiro256++), with the float helpers the renderer needs.

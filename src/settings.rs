@@ -36,6 +36,7 @@
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
 //! emission_nee_distance = 2  # emitting media's light on surfaces from ≥ this far by next-event estimation (hybrid; off if absent)
 //! photon_guiding = "visibility"  # emit photons towards what the camera sees, or "off"
+//! photon_splitting = "off"  # or "importance": split light paths where the camera looks, in media
 //! ```
 
 use crate::choices::choices;
@@ -105,6 +106,19 @@ choices! {
         Visibility = "visibility",
         /// Photons leave every light in proportion to its power, uniformly over its emission.
         Off = "off",
+    }
+}
+
+choices! {
+    /// Whether light paths are split and ended by their worth to the image, in media.
+    pub enum PhotonSplitting ("photon splitting") {
+        /// Light paths go on as they are (the default).
+        Off = "off",
+        /// By importance (docs/theory.md, "Light paths split by importance"): a pilot of eye
+        /// random walks estimates what a light path at each point of a grid adds to the image,
+        /// and at every collision in a medium a path worth more than twice the average emitted
+        /// path is split into copies and one worth less than half plays Russian roulette.
+        Importance = "importance",
     }
 }
 
@@ -548,6 +562,12 @@ render_settings! {
     /// or `off` (by power, uniformly).
     [long, value_name = "KIND"]
     photon_guiding: PhotonGuiding = PhotonGuiding::Visibility, any;
+
+    /// Split and end light paths by their worth to the image at collisions in media:
+    /// `importance` (from a pilot of eye random walks) or `off`. Photon mapping and the combined
+    /// integrator; unbiased either way.
+    [long, value_name = "KIND"]
+    photon_splitting: PhotonSplitting = PhotonSplitting::Off, any;
 
     /// Thin volume photons in thinning cells (cubes holding ~4 photons on average) holding more
     /// than this many: each is kept with probability budget/count and its power divided by it —

@@ -43,16 +43,21 @@ for line in "${scenes[@]}"; do
   # photon-mapping runs with four times the photons.
   # dense-fog's path-traced reference is a scatter of single fireflies after 150 s (its light
   # reaches the camera along random walks of ~1000 steps from a lamp 0.8 m inside the fog):
-  # photon mapping with 64x the light paths for 600 s instead (62 % relative noise of its own;
-  # its kernel bias, -0.13 % +- 0.82 %, is far below the errors measured against it).
-  # DENSE_REF_TIME overrides its 600 s; delete an older, path-traced
-  # $REFS/dense-fog.exr by hand, since an existing reference is reused.
+  # photon mapping with 16x the light paths, split by importance, for 600 s instead (see
+  # docs/performance.md, "Light paths split by importance", for its noise and kernel bias; the
+  # earlier one, 64x the light paths unsplit, had 62 % relative noise of its own).
+  # DENSE_REF_TIME overrides its 600 s; delete an older $REFS/dense-fog.exr by hand, since an
+  # existing reference is reused.
   wanted "$name" || continue
-  ref_photons=$((photons * 4)) ref_time=$REF_TIME
-  if [ "$name" = dense-fog ]; then ref_photons=$((photons * 64)) ref_time=${DENSE_REF_TIME:-600s}; fi
+  ref_photons=$((photons * 4)) ref_time=$REF_TIME ref_extra=()
+  if [ "$name" = dense-fog ]; then
+    ref_photons=$((photons * 16)) ref_time=${DENSE_REF_TIME:-600s}
+    ref_extra=(--photon-splitting importance)
+  fi
   if [ ! -f "$REFS/$name.exr" ]; then
     "$HAZE" render "scenes/$name.toml" --resolution "$res" -p "$ref_photons" \
-      --integrator "$ref" --seed 1000 -t "$ref_time" --reference -q -o "$REFS/$name.exr"
+      --integrator "$ref" --seed 1000 -t "$ref_time" --reference -q "${ref_extra[@]}" \
+      -o "$REFS/$name.exr"
   fi
 done
 
@@ -74,6 +79,11 @@ for line in "${scenes[@]}"; do
   # whether it was hit, so measure below both (rows 46-140).
   region=()
   if [ "$name" = volumetric-caustic ]; then region=(--region 0,46,250,141); fi
+  # Light paths split by importance: the modes it was built for, where they are measured.
+  if [ "$name" = dense-fog ]; then
+    series+=(--series "photons beam split:integrator=photons,photon_splitting=importance"
+      --series "combined split:integrator=combined,photon_splitting=importance")
+  fi
   "$HAZE" converge "scenes/$name.toml" "${common[@]}" "${region[@]}" -t "$RUN_TIME" "${series[@]}" \
     --series "combined:integrator=combined" --series "path:integrator=path" \
     -o "$OUT/time-to-error-$name"

@@ -32,6 +32,7 @@ use crate::estimate::surface::{Gather, NORMAL_COS};
 use crate::math::{Rgb, offset_origin};
 use crate::medium::{Medium, SegmentTransmittance, TransmittanceDistance};
 use crate::photon::beam::BeamMap;
+use crate::photon::importance::Importance;
 use crate::photon::map::PhotonGrid;
 use crate::photon::trace::{PhotonPass, Photons, emitted, nee_density, trace_photons};
 use crate::photon::{BounceRange, Photon, VolumePhoton};
@@ -60,6 +61,8 @@ pub(crate) struct Combined {
     layers: Layers,
     /// The light paths per iteration, once chosen (by the pilot, or the plan's).
     budget: Option<Budget>,
+    /// With splitting, the importance its pilots found (learnt with the budget, before it).
+    importance: Option<Importance>,
 }
 
 /// Each technique's contribution, summed over the iterations, per pixel ([`LAYERS`] layers in
@@ -94,6 +97,7 @@ impl Combined {
             volume_beams: BeamMap::new(),
             layers: Layers::default(),
             budget: None,
+            importance: None,
         };
         // Each gathered photon's weight record is found by its index in the photon pass.
         c.surface_map.set_tracking(true);
@@ -160,6 +164,11 @@ impl Combined {
     /// iteration has). `None` if `stop` was raised first.
     pub(crate) fn budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<&Budget> {
         if self.budget.is_none() {
+            if self.plan.splitting {
+                let (seed, bounces) = (self.plan.seed, self.plan.max_bounces);
+                self.importance =
+                    super::splitting::learn(scene, &self.lights, seed, bounces, stop).ok()?;
+            }
             self.budget = Some(self.choose_budget(scene, stop)?);
         }
         self.budget.as_ref()
@@ -268,7 +277,15 @@ impl Combined {
         };
         // With `only` the eye's techniques, no photon is gathered: none is traced.
         if self.merges()
-            && !trace_photons(scene, &self.lights, None, &pass, stop, &mut self.photons)
+            && !trace_photons(
+                scene,
+                &self.lights,
+                None,
+                self.importance.as_ref(),
+                &pass,
+                stop,
+                &mut self.photons,
+            )
         {
             return None;
         }

@@ -17,6 +17,7 @@ pub(crate) mod original;
 pub(crate) mod path;
 pub(crate) mod ppm;
 pub(crate) mod single;
+pub(crate) mod splitting;
 pub(crate) mod walk;
 
 use crate::film::Film;

@@ -9,6 +9,7 @@ use super::frame::StepTimes;
 use crate::estimate::surface::Gather;
 use crate::photon::beam::{BeamMap, Thinning};
 use crate::photon::guide::{EmissionGuide, LightUse, PilotPath};
+use crate::photon::importance::Importance;
 use crate::photon::map::PhotonGrid;
 use crate::photon::marks::{GatherMarks, Tally};
 use crate::photon::trace::{PhotonPass, Photons, trace_photons};
@@ -29,6 +30,10 @@ pub(crate) struct PhotonMapper {
     /// gain little), and what it found per light.
     pilot_done: bool,
     guide: Option<EmissionGuide>,
+    /// With splitting: whether its pilots ran, and the importance they found (none if they found
+    /// nothing to split by).
+    split_done: bool,
+    importance: Option<Importance>,
     usage: Vec<LightUse>,
     gain: f64,
     photons: Photons,
@@ -46,6 +51,8 @@ impl PhotonMapper {
             lights: LightSampler::new(&scene.lights, scene.shapes.len()),
             pilot_done: false,
             guide: None,
+            split_done: false,
+            importance: None,
             usage: Vec::new(),
             gain: 1.0,
             photons: Photons::default(),
@@ -82,7 +89,7 @@ impl PhotonMapper {
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
         let clock = Instant::now();
-        if !self.learn_guide(scene, stop) {
+        if !self.learn_guide(scene, stop) || !self.learn_importance(scene, stop) {
             return None;
         }
         times.pilot = lap(clock);
@@ -116,7 +123,15 @@ impl PhotonMapper {
             self.emitters = EmitterPool::new(scene, self.plan.seed, i);
         }
         let pass = self.photon_pass(i, self.plan.paths, false);
-        trace_photons(scene, &self.lights, self.guide.as_ref(), &pass, stop, &mut self.photons)
+        trace_photons(
+            scene,
+            &self.lights,
+            self.guide.as_ref(),
+            self.importance.as_ref(),
+            &pass,
+            stop,
+            &mut self.photons,
+        )
     }
 
     fn photon_pass(&self, iteration: u64, paths: u64, record: bool) -> PhotonPass {
@@ -131,6 +146,21 @@ impl PhotonMapper {
             record,
             mis: None,
         }
+    }
+
+    /// The pilots of splitting by importance (`splitting.rs`), once per render with splitting on.
+    /// Returns `false` if `stop` was raised first.
+    fn learn_importance(&mut self, scene: &Scene, stop: &AtomicBool) -> bool {
+        if !self.plan.splitting || self.split_done {
+            return true;
+        }
+        let (seed, bounces) = (self.plan.seed, self.plan.max_bounces);
+        let Ok(importance) = super::splitting::learn(scene, &self.lights, seed, bounces, stop)
+        else {
+            return false;
+        };
+        (self.importance, self.split_done) = (importance, true);
+        true
     }
 
     /// The guiding pilot (docs/theory.md, "Photons where the camera looks"), once per render:
@@ -150,7 +180,7 @@ impl PhotonMapper {
                 first_path: round * per_round,
                 ..self.photon_pass(0, per_round, true)
             };
-            if !trace_photons(scene, &self.lights, None, &pass, stop, &mut self.photons) {
+            if !trace_photons(scene, &self.lights, None, None, &pass, stop, &mut self.photons) {
                 return false;
             }
             let Some(marks) = self.gather_marks(scene, 0, stop) else { return false };

@@ -3,6 +3,7 @@
 pub mod beam;
 mod entries;
 pub mod guide;
+pub(crate) mod importance;
 pub mod map;
 pub(crate) mod marks;
 pub(crate) mod sort;

@@ -6,6 +6,7 @@
 //! same whatever the thread count.
 
 use super::guide::{EmissionGuide, Guided, guided};
+use super::importance::{Fate, Importance};
 use super::{Photon, VolumePhoton};
 use crate::accel::Hit;
 use crate::estimate::mis::{Emitted, Kernels, LightMis, Site, collision_share, crossing_share};
@@ -166,8 +167,9 @@ fn always_stored(paths: u64) -> f32 {
 /// whatever the medium. Thinning is a source of noise: in `scenes/dense-fog.toml` (an albedo-0.999
 /// random walk of ~1000 events) the photons that reach the camera's side of the fog come from
 /// paths hundreds of events long, and with A = 32 each stored one stood for ~16 (relative RMSE
-/// at 10 s, 96x96, 125 paths, three seeds, 2 cores: 519–603 % with A = 32, 257–269 % with
-/// A = 256, 197–207 % storing every photon — what the budget gives there).
+/// at 10 s, 96x96, 125 paths, three seeds, 2 cores: 518–606 % with A = 32, 252–265 % with
+/// A = 256, 191–202 % storing every photon — what the budget gives there; docs/performance.md,
+/// "Thinning by a budget").
 /// `surface`: the event is at a surface (else a medium collision).
 fn stored(path: &mut LightPath, pass: &PhotonPass, x: Vec3, surface: bool) -> Option<f32> {
     if pass.skip_direct && path.bounces == 0 {
@@ -209,6 +211,7 @@ struct LightPath<'a> {
 }
 
 /// A light path's weight quantities for the combined estimator (`estimate/mis.rs`).
+#[derive(Clone)]
 struct PathMis<'a> {
     lights: &'a LightSampler,
     kernels: Kernels,
@@ -273,6 +276,7 @@ pub(crate) fn nee_density(light: &Light, pick: f32, pdfs: EmissionPdfs, x0: Vec3
 }
 
 /// How a light path left its light.
+#[derive(Clone, Copy)]
 struct Start {
     light: usize,
     /// Its origin, and the densities of the origin and direction.
@@ -369,6 +373,7 @@ fn trace_path(
     emitting: Emitting,
     p_media: f32,
     pass: &PhotonPass,
+    importance: Option<&Importance>,
     index: u64,
     out: &mut Photons,
 ) {
@@ -390,7 +395,7 @@ fn trace_path(
                 emitted_at: Some(e.p),
                 mis: None,
             };
-            follow(scene, pass, path, out);
+            follow(scene, pass, importance, index, path, out);
             return;
         }
         p_lights = 1.0 - p_media;
@@ -425,7 +430,6 @@ fn trace_path(
     }
     let o = if e.n == Vec3::ZERO { e.p } else { offset_origin(e.p, e.n, e.d) };
     let medium = scene.light_media[li];
-    let index = index as u32;
     let (ray, bounces, emitted_at) = (Travel::new(o, e.d, medium), 0, None);
     let mis = match (pass.mis, emitting) {
         // Without emitting media (the combined estimator emits from lights alone) p_lights is
@@ -433,21 +437,118 @@ fn trace_path(
         (Some(k), Emitting::ByPower(lights)) => Some(PathMis::new(lights, k, li, light, &e)),
         _ => None,
     };
-    let path = LightPath { index, s, ray, beta, bounces, emitted_at, mis };
-    follow(scene, pass, path, out);
+    let path = LightPath { index: index as u32, s, ray, beta, bounces, emitted_at, mis };
+    follow(scene, pass, importance, index, path, out);
 }
 
-/// Follows a light path from its start to its end, storing its photons in `out`.
-fn follow(scene: &Scene, pass: &PhotonPass, path: LightPath<'_>, out: &mut Photons) {
-    let mut tracing = Tracing { pass, path, out };
-    while step(scene, &mut tracing) != Vertex::Stop {}
+/// Follows a light path from its start to its end, and then each copy it split into
+/// ([`Importance`]) from where it was made, storing their photons in `out`.
+fn follow(
+    scene: &Scene,
+    pass: &PhotonPass,
+    importance: Option<&Importance>,
+    root: u64,
+    path: LightPath<'_>,
+    out: &mut Photons,
+) {
+    let mut tracing = Tracing { pass, importance, path, out, copies: Vec::new(), made: 0, root };
+    loop {
+        while step(scene, &mut tracing) != Vertex::Stop {}
+        // The next copy that scatters on (one that ends at once is done).
+        loop {
+            let Some((copy, from)) = tracing.copies.pop() else { return };
+            tracing.path = copy;
+            let m = &scene.media[from.medium as usize];
+            if tracing.scatter(scene, m, from) != Vertex::Stop {
+                break;
+            }
+        }
+    }
 }
 
-/// A light path on its way, the pass it belongs to and the photons it leaves.
+/// Where a copy of a light path made at a collision goes on from: the collision in medium
+/// `medium` at `p`, reached along `d`, the throughputs before the free flight there and after
+/// its scattering weight (each already divided by the split's factor), and σ̄ there.
+#[derive(Clone, Copy)]
+struct From {
+    medium: u32,
+    p: Vec3,
+    d: Vec3,
+    before: Rgb,
+    survival: Rgb,
+    sigma: f32,
+}
+
+/// A light path on its way, the pass it belongs to and the photons it leaves; with importance,
+/// the copies it has split into that wait to be followed, how many it has made, and its random
+/// stream's key (each copy's stream is keyed by it and the copy's number).
 struct Tracing<'a> {
     pass: &'a PhotonPass,
+    importance: Option<&'a Importance>,
     path: LightPath<'a>,
     out: &'a mut Photons,
+    copies: Vec<(LightPath<'a>, From)>,
+    made: u32,
+    root: u64,
+}
+
+impl<'a> Tracing<'a> {
+    /// A collision's fate by importance ([`Importance::decide`]): the factor the path's
+    /// throughputs are divided by, the copies beyond this one waiting in `copies`.
+    fn split(&mut self, from: From) -> f32 {
+        let Some(imp) = self.importance else { return 1.0 };
+        let path = &mut self.path;
+        match imp.decide(path.beta, from.p, self.made, path.s.next_f32()) {
+            Fate::Keep => 1.0,
+            Fate::Split(n, f) => {
+                let scaled = From { before: from.before / f, survival: from.survival / f, ..from };
+                for _ in 1..n {
+                    self.made += 1;
+                    let key = (self.root << 11) | u64::from(self.made);
+                    let s = Sampler::new(self.pass.seed, Purpose::Split, self.pass.iteration, key);
+                    let p = &self.path;
+                    let copy = LightPath {
+                        index: p.index,
+                        s,
+                        ray: p.ray,
+                        beta: p.beta,
+                        bounces: p.bounces,
+                        emitted_at: p.emitted_at,
+                        mis: p.mis.clone(),
+                    };
+                    self.copies.push((copy, scaled));
+                }
+                f
+            }
+        }
+    }
+
+    /// Scatters the path at the collision `from` in `m`: samples the phase function, plays the
+    /// albedo's Russian roulette and sets the next ray.
+    fn scatter(&mut self, scene: &Scene, m: &Medium, from: From) -> Vertex {
+        let From { p, d, before, survival, sigma, .. } = from;
+        let path = &mut self.path;
+        let ps = m.phase().sample(d, path.s.next_2d());
+        // The scattering weight is σ_s times the phase sample's value over its pdf (1 for exact
+        // sampling); the path survives with the albedo (the throughput before the flight against
+        // after the scattering), so absorbing and dense media end paths where they absorb light.
+        let survival = survival * (ps.value / ps.pdf);
+        let Some(b) = roulette(before, survival, path.s.next_f32()) else {
+            return Vertex::Stop;
+        };
+        if let Some(mis) = &mut path.mis {
+            // The phase function is symmetric: the eye's reverse density is the same. The eye's
+            // density factor of this collision is free flight's, σ, in a grid; in a homogeneous
+            // medium its share of it needs the eye's segment through here.
+            let homogeneous = matches!(m, Medium::Homogeneous(_)).then(|| {
+                let behind = scene.intersect(p, -ps.wi, f32::INFINITY);
+                (sigma, behind.map_or(f32::INFINITY, |h| h.t))
+            });
+            mis.leave(Site::Medium(sigma), ps.pdf, sigma, ps.pdf, homogeneous);
+        }
+        (path.beta, path.ray.o, path.ray.d) = (b, p, ps.wi);
+        Vertex::Scattered
+    }
 }
 
 impl Traveller for Tracing<'_> {
@@ -463,7 +564,7 @@ impl Traveller for Tracing<'_> {
         t_max: f32,
         _end: Option<&Hit>,
     ) -> Option<Vertex> {
-        let Tracing { pass, path, out } = self;
+        let Tracing { pass, path, out, .. } = self;
         let m = &scene.media[id as usize];
         let Travel { o, d, .. } = path.ray;
         let flight = m.sample_free_flight(o, d, t_max, &mut path.s);
@@ -507,31 +608,15 @@ impl Traveller for Tracing<'_> {
         if path.bounces >= pass.max_bounces {
             return Some(Vertex::Stop);
         }
-        let ps = m.phase().sample(d, path.s.next_2d());
-        // The scattering weight is σ_s times the phase sample's value over its pdf (1 for exact
-        // sampling); the path survives with the albedo (the throughput before the flight against
-        // after the scattering), so absorbing and dense media end paths where they absorb light.
-        let survival = survival * (ps.value / ps.pdf);
-        let Some(b) = roulette(before, survival, path.s.next_f32()) else {
-            return Some(Vertex::Stop);
-        };
-        if let Some(mis) = &mut path.mis {
-            // The phase function is symmetric: the eye's reverse density is the same. The eye's
-            // density factor of this collision is free flight's, σ, in a grid; in a homogeneous
-            // medium its share of it needs the eye's segment through here.
-            let homogeneous = matches!(m, Medium::Homogeneous(_)).then(|| {
-                let behind = scene.intersect(p, -ps.wi, f32::INFINITY);
-                (sigma, behind.map_or(f32::INFINITY, |h| h.t))
-            });
-            mis.leave(Site::Medium(sigma), ps.pdf, sigma, ps.pdf, homogeneous);
-        }
-        (path.beta, path.ray.o, path.ray.d) = (b, p, ps.wi);
-        Some(Vertex::Scattered)
+        let from = From { medium: id, p, d, before, survival, sigma };
+        let f = self.split(from);
+        let from = From { before: before / f, survival: survival / f, ..from };
+        Some(self.scatter(scene, m, from))
     }
 
     /// A diffuse surface stores a photon, and the path scatters.
     fn at_surface(&mut self, scene: &Scene, hit: &Hit, material: &Material) -> Vertex {
-        let Tracing { pass, path, out } = self;
+        let Tracing { pass, path, out, .. } = self;
         let wo = -path.ray.d;
         let n = if wo.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
         let diffuse = material.is_diffuse();
@@ -588,6 +673,7 @@ pub(crate) fn trace_photons(
     scene: &Scene,
     lights: &LightSampler,
     guide: Option<&EmissionGuide>,
+    importance: Option<&Importance>,
     pass: &PhotonPass,
     stop: &AtomicBool,
     out: &mut Photons,
@@ -618,7 +704,7 @@ pub(crate) fn trace_photons(
             if stop.load(Ordering::Relaxed) {
                 return false;
             }
-            trace_path(scene, emitting, p_media, pass, pass.first_path + index, local);
+            trace_path(scene, emitting, p_media, pass, importance, pass.first_path + index, local);
         }
         local.work = crate::work::Work::here() - before;
         true
@@ -662,7 +748,15 @@ mod tests {
             mis: Some(kernels),
         };
         let mut out = Photons::default();
-        assert!(trace_photons(&scene, &lights, None, &pass, &AtomicBool::new(false), &mut out));
+        assert!(trace_photons(
+            &scene,
+            &lights,
+            None,
+            None,
+            &pass,
+            &AtomicBool::new(false),
+            &mut out
+        ));
         let (mut checked, mut shares) = (0, Vec::new());
         for k in 1..out.volume.len() {
             let (a, b) = (&out.volume[k - 1], &out.volume[k]);
