@@ -19,7 +19,7 @@
 pub(crate) mod budget;
 
 use super::frame::{Frame, StepTimes};
-use super::path::roulette;
+use super::walk::roulette;
 use super::walk::{EyePath, EyeVisitor, Next, environment_seen, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::Estimate;

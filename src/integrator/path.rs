@@ -21,13 +21,12 @@
 use super::direct::{emission_weight, environment_weight, next_event};
 use super::frame::StepTimes;
 use super::single::single_scattering;
-use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
+use super::walk::{EyePath, EyeVisitor, Next, roulette, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::volume::EyeSegment;
 use crate::math::{Rgb, offset_origin};
 use crate::medium::Medium;
 use crate::plan::{Plan, Radii};
-use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
@@ -201,26 +200,6 @@ impl EyeVisitor for PathEye<'_> {
     fn survive(&mut self, path: &mut EyePath) -> bool {
         roulette(&mut path.beta, path.depth, &mut path.s)
     }
-}
-
-/// Russian roulette from the fourth event on, survival probability min(1, max β): a path whose
-/// throughput has not fallen is never killed. (An earlier cap of 0.95 killed paths in albedo-1
-/// media after ~20 events whatever their throughput; in optically thick media, where light needs
-/// thousands of events to escape, the survivors' weights 0.95^−k then made the estimate useless.)
-#[inline]
-pub(crate) fn roulette(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
-    if beta.max_element() <= 0.0 {
-        return false;
-    }
-    if depth < 3 || beta.max_element() >= 1.0 {
-        return true;
-    }
-    let q = beta.max_element();
-    if s.next_f32() >= q {
-        return false;
-    }
-    *beta /= q;
-    true
 }
 
 /// Renders one path-traced iteration into `frame` (without kernel bias). Returns `false` if

@@ -182,6 +182,6 @@ impl EyeVisitor for Importon {
     }
 
     fn survive(&mut self, path: &mut EyePath) -> bool {
-        super::path::roulette(&mut path.beta, path.depth, &mut path.s)
+        super::walk::roulette(&mut path.beta, path.depth, &mut path.s)
     }
 }

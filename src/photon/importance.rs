@@ -22,20 +22,21 @@
 //! ([`Importance::decide`]): a path worth more than twice the target is split into ⌊R⌋ or ⌈R⌉
 //! copies (R in expectation, at most [`MOST_COPIES`] at once and [`MOST_PER_PATH`] in all), each
 //! divided by R, so that the light reaching where the camera looks is carried by many light paths
-//! of small weight instead of a few of large weight. Splitting is unbiased for any fixed W — a
-//! wrong importance costs time, never the mean — and W and the target come from pilots with their
-//! own random streams, the same in every process of a split render, so every iteration stays an
-//! ordinary, independent photon-mapping render (docs/theory.md, "Light paths split by
-//! importance").
+//! of small weight instead of a few of large weight. A copy worth less than half the target plays
+//! Russian roulette: it survives with probability max(R, 1/s), s what splitting has divided it by,
+//! and is divided by that — never above the throughput of the path it was split from. Both are
+//! unbiased for any fixed W — a wrong importance costs time or noise, never the mean — and W and
+//! the target come from pilots with their own random streams, the same in every process of a
+//! split render, so every iteration stays an ordinary, independent photon-mapping render
+//! (docs/theory.md, "Light paths split by importance").
 //!
-//! The other half of Vorba & Křivánek's weight window, Russian roulette for paths worth less than
-//! half the target, is left out: measured on dense-fog it made fireflies. The pilot's W is noisy,
-//! and a path that survives roulette where W is underestimated arrives where the camera looks
-//! weighing up to 16× an unsplit path's (the top 1 % of the photons stored near the front carried
-//! 39 % of their power, against 3 % with splitting alone; relative RMSE at 10 s 207–397 % with
-//! roulette below a quarter of the target, 108–122 % without). Roulette for copies alone, never
-//! above the unsplit path's weight, was worse too: 138 % against 100 % at 19 s (`haze converge`,
-//! 25 s, 2 runs, 2 cores).
+//! Vorba & Křivánek's window also plays roulette with paths never split. That would let a path
+//! that survives where the pilot's noisy W is too low arrive where the camera looks weighing more
+//! than any unsplit path: haze does not (measured only under a bug since fixed — see
+//! docs/theory.md — so that choice is untested). Roulette for copies alone was measured:
+//! relative RMSE at 19 s against splitting alone, dense-fog (photons) 45.6 % against 50.4 %,
+//! cornell-fog (hybrid) 4.81 % against 5.24 %, cornell-cloud (hybrid) 8.95 % against 9.27 %
+//! (`haze converge`, 25 s, 2 runs, 2 cores).
 
 use crate::math::{Rgb, luminance};
 use glam::Vec3;
@@ -43,7 +44,10 @@ use glam::Vec3;
 /// Cells along the longest side of the grid.
 pub(crate) const CELLS: usize = 32;
 
-/// A path worth more than this many targets is split …
+/// A copy worth less than this share of the target plays Russian roulette …
+const LOW: f32 = 0.5;
+
+/// … and a path worth more than this many targets is split …
 const HIGH: f32 = 2.0;
 
 /// … into at most this many copies at one collision …
@@ -114,6 +118,10 @@ pub(crate) struct Importance {
 pub(crate) enum Fate {
     /// Go on as it is.
     Keep,
+    /// Go on divided by the probability it survived with.
+    Survive(f32),
+    /// End here (its photon here is stored).
+    End,
     /// Go on as this many copies, each divided by the factor.
     Split(u32, f32),
 }
@@ -180,14 +188,20 @@ impl Importance {
         })
     }
 
-    /// The fate of a path of throughput `beta` at a collision at `p`, with `copies` made so far
-    /// and the uniform `u`. Outside the grid a path goes on as it is. No path is ended by its
-    /// importance (see the module's doc).
-    pub(crate) fn decide(&self, beta: Rgb, p: Vec3, copies: u32, u: f32) -> Fate {
+    /// The fate of a path of throughput `beta` at a collision at `p`, with `copies` made so far,
+    /// `split` what splitting has divided it by so far (1 for a path never split), and the uniform
+    /// `u`. Outside the grid a path goes on as it is; a path never split is never ended (see the
+    /// module's doc).
+    pub(crate) fn decide(&self, beta: Rgb, p: Vec3, copies: u32, split: f32, u: f32) -> Fate {
         let Some(w) = self.at(p) else { return Fate::Keep };
         let r = luminance(beta) * w / self.target;
         if !r.is_finite() {
             return Fate::Keep;
+        }
+        if r < LOW && split > 1.0 {
+            // Never above the unsplit path's throughput: survive with at least 1 / split.
+            let q = r.max(1.0 / split);
+            return if u < q { Fate::Survive(q) } else { Fate::End };
         }
         let room = MOST_PER_PATH.saturating_sub(copies).min(MOST_COPIES - 1) + 1;
         if r <= HIGH || room < 2 {
@@ -224,13 +238,18 @@ mod tests {
         let imp = unit(1.0, 1.0);
         let p = Vec3::splat(0.5);
         for value in [0.001, 0.03, 0.2, 0.49, 0.7, 1.9, 2.5, 7.3, 15.9, 40.0, 3000.0] {
-            for copies in [0, 1000, 1020, 1024] {
+            for (copies, split) in [(0, 1.0), (0, 100.0), (1000, 4.0), (1020, 1.0), (1024, 30.0)] {
                 let n = 100_000;
                 let mut mean = 0.0f64;
                 for k in 0..n {
                     let u = (k as f32 + 0.5) / n as f32;
-                    mean += match imp.decide(Rgb::splat(value), p, copies, u) {
+                    mean += match imp.decide(Rgb::splat(value), p, copies, split, u) {
                         Fate::Keep => 1.0,
+                        Fate::Survive(q) => {
+                            assert!(q * split >= 1.0 - 1e-6, "above the unsplit throughput");
+                            1.0 / q as f64
+                        }
+                        Fate::End => 0.0,
                         Fate::Split(c, f) => {
                             assert!(c <= MOST_COPIES && copies + c - 1 <= MOST_PER_PATH);
                             c as f64 / f as f64
@@ -247,10 +266,10 @@ mod tests {
     #[test]
     fn outside_the_grid_paths_go_on() {
         let imp = unit(1.0, 1.0);
-        assert_eq!(imp.decide(Rgb::splat(100.0), Vec3::splat(2.0), 0, 0.5), Fate::Keep);
-        assert_eq!(imp.decide(Rgb::splat(100.0), Vec3::splat(-0.1), 0, 0.5), Fate::Keep);
-        // Paths worth little go on: no roulette.
-        assert_eq!(imp.decide(Rgb::splat(0.001), Vec3::splat(0.5), 0, 0.99), Fate::Keep);
+        assert_eq!(imp.decide(Rgb::splat(100.0), Vec3::splat(2.0), 0, 1.0, 0.5), Fate::Keep);
+        assert_eq!(imp.decide(Rgb::splat(100.0), Vec3::splat(-0.1), 0, 1.0, 0.5), Fate::Keep);
+        // A path never split goes on however little it is worth: no roulette.
+        assert_eq!(imp.decide(Rgb::splat(0.001), Vec3::splat(0.5), 0, 1.0, 0.99), Fate::Keep);
         assert!(unit(1.0, 1.0).clone().with_target(0.0).is_none());
         let cells = 32 * 32 * 32;
         let none =

@@ -202,6 +202,10 @@ struct LightPath<'a> {
     /// Scattering events so far (medium collisions and surface scatterings; pass-through
     /// interfaces are not events).
     bounces: u32,
+    /// What splitting by importance has divided its throughput by so far, less what roulette
+    /// multiplied back (1 for a path never split): roulette never takes a copy above the
+    /// unsplit path's throughput ([`Importance::decide`]).
+    split: f32,
     /// Where a medium emitted it (`None` for a light's): in the hybrid its first event stores a
     /// photon if it is a medium collision or lies nearer than `PhotonPass::media_near`, the light
     /// next-event estimation leaves to photons.
@@ -392,6 +396,7 @@ fn trace_path(
                 ray: Travel::new(e.p, e.d, Some(e.medium)),
                 beta: e.beta / p_media,
                 bounces: 0,
+                split: 1.0,
                 emitted_at: Some(e.p),
                 mis: None,
             };
@@ -437,7 +442,8 @@ fn trace_path(
         (Some(k), Emitting::ByPower(lights)) => Some(PathMis::new(lights, k, li, light, &e)),
         _ => None,
     };
-    let path = LightPath { index: index as u32, s, ray, beta, bounces, emitted_at, mis };
+    let path =
+        LightPath { index: index as u32, s, ray, beta, bounces, split: 1.0, emitted_at, mis };
     follow(scene, pass, importance, index, path, out);
 }
 
@@ -493,14 +499,21 @@ struct Tracing<'a> {
 }
 
 impl<'a> Tracing<'a> {
-    /// A collision's fate by importance ([`Importance::decide`]): the factor the path's
-    /// throughputs are divided by, the copies beyond this one waiting in `copies`.
-    fn split(&mut self, from: From) -> f32 {
-        let Some(imp) = self.importance else { return 1.0 };
+    /// A collision's fate by importance ([`Importance::decide`]): `None` if the path ends there,
+    /// else the factor its throughputs are divided by, the copies beyond this one waiting in
+    /// `copies`.
+    fn split(&mut self, from: From) -> Option<f32> {
+        let Some(imp) = self.importance else { return Some(1.0) };
         let path = &mut self.path;
-        match imp.decide(path.beta, from.p, self.made, path.s.next_f32()) {
-            Fate::Keep => 1.0,
+        match imp.decide(path.beta, from.p, self.made, path.split, path.s.next_f32()) {
+            Fate::Keep => Some(1.0),
+            Fate::Survive(q) => {
+                path.split *= q;
+                Some(q)
+            }
+            Fate::End => None,
             Fate::Split(n, f) => {
+                path.split *= f;
                 let scaled = From { before: from.before / f, survival: from.survival / f, ..from };
                 for _ in 1..n {
                     self.made += 1;
@@ -513,12 +526,13 @@ impl<'a> Tracing<'a> {
                         ray: p.ray,
                         beta: p.beta,
                         bounces: p.bounces,
+                        split: p.split,
                         emitted_at: p.emitted_at,
                         mis: p.mis.clone(),
                     };
                     self.copies.push((copy, scaled));
                 }
-                f
+                Some(f)
             }
         }
     }
@@ -609,7 +623,7 @@ impl Traveller for Tracing<'_> {
             return Some(Vertex::Stop);
         }
         let from = From { medium: id, p, d, before, survival, sigma };
-        let f = self.split(from);
+        let Some(f) = self.split(from) else { return Some(Vertex::Stop) };
         let from = From { before: before / f, survival: survival / f, ..from };
         Some(self.scatter(scene, m, from))
     }

@@ -1,6 +1,7 @@
 //! Renders split into iteration ranges and merged, and renders stopped and resumed, are
 //! bit-identical to one uninterrupted render: for photon mapping and the hybrid (beam and point
-//! estimates, homogeneous and VDB media) and the path tracer; the original PPM resumes.
+//! estimates, homogeneous and VDB media, light paths split by importance) and the path tracer;
+//! the original PPM resumes.
 
 use crate::common::{scene_path, temp_dir};
 use haze::progress::Silent;
@@ -59,6 +60,20 @@ fn ranges_of_the_combined_integrator_merge_and_resume_exactly() {
     let combined =
         RenderSettings { photons: 4_000, ..settings(Integrator::Combined, VolumeEstimate::Beam) };
     check_exact("cornell-fog.toml", &combined);
+}
+
+/// Light paths split by importance: the pilots run before the first iteration of every part, from
+/// streams of their own, so every part splits the same way (cornell-fog, whose lamp lights the fog
+/// unevenly enough that paths split).
+#[test]
+fn ranges_with_light_paths_split_by_importance_merge_and_resume_exactly() {
+    for integrator in [Integrator::PhotonMapping, Integrator::Combined] {
+        let split = RenderSettings {
+            photon_splitting: haze::settings::PhotonSplitting::Importance,
+            ..settings(integrator, VolumeEstimate::Beam)
+        };
+        check_exact("cornell-fog.toml", &split);
+    }
 }
 
 #[test]

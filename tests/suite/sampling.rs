@@ -126,6 +126,8 @@ fn photon_splitting_changes_the_noise_not_the_image() {
     };
     let ((split, with), (plain, without)) =
         (run(PhotonSplitting::Importance), run(PhotonSplitting::Off));
-    assert!(2 * with > 3 * without, "splitting stored {with} volume photons, unsplit {without}");
+    // That the rule ran: millions of photons, so a few percent of noise at most (measured: 1.35×
+    // with roulette for copies, 2× without).
+    assert!(5 * with > 6 * without, "splitting stored {with} volume photons, unsplit {without}");
     assert_regions_agree("split", &split, "unsplit", &plain);
 }
