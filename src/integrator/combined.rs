@@ -19,8 +19,7 @@
 pub(crate) mod budget;
 
 use super::frame::{Frame, StepTimes};
-use super::walk::roulette;
-use super::walk::{EyePath, EyeVisitor, Next, environment_seen, walk_eye};
+use super::walk::{EyePath, EyeVisitor, Next, environment_seen, roulette, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::Estimate;
 use crate::estimate::mis::weight;
@@ -165,9 +164,8 @@ impl Combined {
     pub(crate) fn budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<&Budget> {
         if self.budget.is_none() {
             if self.plan.splitting {
-                let (seed, bounces) = (self.plan.seed, self.plan.max_bounces);
                 self.importance =
-                    super::splitting::learn(scene, &self.lights, seed, bounces, stop).ok()?;
+                    super::splitting::learn(scene, &self.lights, &self.plan, stop).ok()?;
             }
             self.budget = Some(self.choose_budget(scene, stop)?);
         }

@@ -154,9 +154,7 @@ impl PhotonMapper {
         if !self.plan.splitting || self.split_done {
             return true;
         }
-        let (seed, bounces) = (self.plan.seed, self.plan.max_bounces);
-        let Ok(importance) = super::splitting::learn(scene, &self.lights, seed, bounces, stop)
-        else {
+        let Ok(importance) = super::splitting::learn(scene, &self.lights, &self.plan, stop) else {
             return false;
         };
         (self.importance, self.split_done) = (importance, true);

@@ -9,6 +9,7 @@ use crate::math::{Rgb, luminance, offset_origin};
 use crate::medium::Medium;
 use crate::photon::importance::{Importance, cell, grid};
 use crate::photon::trace::{PhotonPass, Photons, trace_photons};
+use crate::plan::Plan;
 use crate::scene::Scene;
 use crate::scene::light::LightSampler;
 use crate::scene::material::{Material, Transport};
@@ -31,16 +32,16 @@ const LIGHT_BOUNCES: u32 = 16;
 /// The iteration number of the pilot's eye walks: one no render reaches.
 const PILOT_ITERATION: u64 = u64::MAX;
 
-/// The importance of `scene` for light paths, or `None` if the scene has no media, or the
+/// The importance of `scene` for the light paths of `plan` (its seed and bounce limit), or `None` if the scene has no media, or the
 /// pilots found no importance or no light path that reaches it (the renders then go unsplit);
 /// `Err(())` if `stop` was raised.
 pub(crate) fn learn(
     scene: &Scene,
     lights: &LightSampler,
-    seed: u64,
-    max_bounces: u32,
+    plan: &Plan,
     stop: &AtomicBool,
 ) -> Result<Option<Importance>, ()> {
+    let (seed, max_bounces) = (plan.seed, plan.max_bounces);
     if !scene.has_media() {
         return Ok(None);
     }

@@ -65,7 +65,8 @@ pub(crate) const FEWEST: u32 = 256;
 /// [`FEWEST`] deposits or more (the whole grid at the coarsest).
 fn pooled(dims: [usize; 3], sums: &[f32], counts: &[u32]) -> Vec<f32> {
     // Level k groups cells by their coordinates shifted right by k.
-    let levels = (usize::BITS - (dims.iter().max().unwrap() - 1).leading_zeros()) as usize;
+    let longest = dims.into_iter().max().unwrap_or(1).max(1);
+    let levels = (usize::BITS - (longest - 1).leading_zeros()) as usize;
     let index = |c: [usize; 3], k: usize| {
         let d = dims.map(|n| ((n - 1) >> k) + 1);
         ((c[2] >> k) * d[1] + (c[1] >> k)) * d[0] + (c[0] >> k)
