@@ -101,6 +101,10 @@ pub(crate) struct Plan {
     pub only: Option<Techniques>,
     /// Where the combined integrator's eye paths merge (`Merges::First` where not set).
     pub merges: Merges,
+    /// The settings leave where the eye merges open: the combined integrator's pilot may
+    /// end the eye paths at their first merge (`Merges::Last`) where their deeper vertices cost
+    /// most of an iteration.
+    pub merges_open: bool,
     /// Let a pilot choose the light paths per iteration among fractions of `paths` (the
     /// combined integrator, with every technique counting).
     pub budget_pilot: bool,
@@ -172,6 +176,7 @@ impl Plan {
             // A choice of the combined integrator's, which the others ignore (a scene can set
             // it for the combined integrator and still be rendered with another).
             merges: settings.merges.unwrap_or(Merges::First),
+            merges_open: settings.merges.is_none(),
             // Each technique alone is a check of that technique at the count asked for.
             budget_pilot: method == MethodKind::Combined
                 && settings.photon_budget != Some(PhotonBudget::Fixed)

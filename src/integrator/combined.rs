@@ -42,7 +42,7 @@ use crate::scene::material::{Material, Transport};
 use crate::settings::{Merges, Technique, Techniques};
 use crate::work::Work;
 pub(crate) use budget::Budget;
-use budget::Tallies;
+use budget::{PixelDone, Tallies};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -177,7 +177,7 @@ impl Combined {
     fn choose_budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<Budget> {
         let n = self.plan.paths;
         if !self.plan.budget_pilot || !self.merges() {
-            return Some(Budget { paths: n, pilot: None });
+            return Some(Budget { paths: n, continues: 1.0, ends_at_merge: false, pilot: None });
         }
         let seed = self.plan.seed ^ budget::PILOT_SEED;
         // The eye's techniques alone, where they count: next-event estimation and the eye
@@ -186,8 +186,13 @@ impl Combined {
         let eye_alone = self.plan.merges == Merges::First
             && self.counts(Technique::Nee)
             && self.counts(Technique::Hit);
+        // Eye paths that end at their first merge, where the settings leave that open and
+        // nothing rules it out (emitting media, whose light the light paths leave to the eye).
+        let last = self.plan.merges_open
+            && self.plan.merges == Merges::First
+            && !scene.has_emissive_media();
         let resolution = scene.camera.resolution;
-        budget::choose(n, resolution, seed, eye_alone, |paths, iterations, pixels| {
+        budget::choose(n, resolution, seed, eye_alone, last, |paths, iterations, pixels| {
             self.pilot_iterations(scene, seed, paths, iterations, pixels, stop)
         })
     }
@@ -213,16 +218,7 @@ impl Combined {
             let spent = times.photon_trace + times.surface_map + times.volume_map;
             let clock = Instant::now();
             let ctx = self.context(scene, seed, i, paths, kernels);
-            let values: Vec<(Rgb, Rgb, Work)> = pixels
-                .par_iter()
-                .with_max_len(8)
-                .map(|&[x, y]| {
-                    let before = Work::here();
-                    let (e, tally) = ctx.pixel(x, y);
-                    let merged = budget::MERGES.iter().map(|&t| tally[t as usize]).sum();
-                    (e.value, merged, Work::here() - before)
-                })
-                .collect();
+            let values = pilot_pixels(&ctx, pixels);
             if stop.load(Ordering::Relaxed) {
                 return None;
             }
@@ -307,7 +303,8 @@ impl Combined {
         paths: u64,
         kernels: Kernels,
     ) -> Context<'a> {
-        let last = self.plan.merges == Merges::Last;
+        let last = self.plan.merges == Merges::Last
+            || self.budget.as_ref().is_some_and(|b| b.ends_at_merge);
         Context {
             scene,
             surface: &self.surface_map,
@@ -335,6 +332,7 @@ impl Combined {
                     && !self.counts(Technique::Hit)
                     && !self.counts(Technique::Nee),
             last,
+            continues: self.budget.as_ref().map_or(1.0, |b| b.continues),
         }
     }
 
@@ -396,6 +394,28 @@ fn camera_pass(
     true
 }
 
+/// One pilot iteration's eye paths over `pixels` (`budget.rs`).
+fn pilot_pixels(ctx: &Context, pixels: &[[u32; 2]]) -> Vec<PixelDone> {
+    pixels
+        .par_iter()
+        .with_max_len(8)
+        .map(|&[x, y]| {
+            let before = Work::here();
+            let eye = ctx.walk(x, y);
+            let after = Work::here();
+            let merged = budget::MERGES.iter().map(|&t| eye.tally[t as usize]).sum();
+            let (l, at) = eye.deep.unwrap_or((eye.value, after));
+            PixelDone {
+                value: eye.value,
+                merged,
+                deep: eye.value - l,
+                work: after - before,
+                deep_work: after - at,
+            }
+        })
+        .collect()
+}
+
 /// What the eye paths of one iteration read.
 struct Context<'a> {
     scene: &'a Scene,
@@ -420,6 +440,17 @@ struct Context<'a> {
     /// … and so do the weights (`Merges::Last`): no eye path goes beyond its first merge, so
     /// none reaches the light from there or connects to it from further on.
     last: bool,
+    /// The chance with which a path goes on past its first merge ([`Budget::continues`]).
+    continues: f32,
+}
+
+/// An eye path walked: its radiance, what each technique added, and where it went past its
+/// first merge (`CombinedEye::deep`).
+struct Walked {
+    value: Rgb,
+    bias: Rgb,
+    tally: Tally,
+    deep: Option<(Rgb, Work)>,
 }
 
 impl Context<'_> {
@@ -443,6 +474,12 @@ impl Context<'_> {
     /// Radiance along the eye path of pixel (x, y), with the kernel bias of its merges, and
     /// what each weighted technique contributed.
     fn pixel(&self, x: u32, y: u32) -> (Estimate, Tally) {
+        let w = self.walk(x, y);
+        (Estimate { value: w.value, bias: w.bias }, w.tally)
+    }
+
+    /// The eye path of pixel (x, y).
+    fn walk(&self, x: u32, y: u32) -> Walked {
         let mut eye = CombinedEye {
             ctx: self,
             carry: 0.0,
@@ -452,10 +489,12 @@ impl Context<'_> {
             first: true,
             bias: Rgb::ZERO,
             tally: Tally::default(),
+            leaving_first: false,
+            deep: None,
         };
         let value =
             walk_eye(self.scene, self.seed, self.iteration, [x, y], self.max_bounces, &mut eye);
-        (Estimate { value, bias: eye.bias }, eye.tally)
+        Walked { value, bias: eye.bias, tally: eye.tally, deep: eye.deep }
     }
 }
 
@@ -481,6 +520,11 @@ struct CombinedEye<'a> {
     bias: Rgb,
     /// What each weighted technique added to the path's radiance.
     tally: Tally,
+    /// The path scattered at the vertex of its first merges and is about to go on past it.
+    leaving_first: bool,
+    /// Where it went on past its first merges: the radiance it had and this thread's work
+    /// there (what the pilot measures of the deeper vertices).
+    deep: Option<(Rgb, Work)>,
 }
 
 /// How a vertex scatters, for next-event estimation's weight: the scattering value towards a
@@ -948,6 +992,7 @@ impl EyeVisitor for CombinedEye<'_> {
         // arrived with its own density factor; the light's is free flight's, σ.
         self.carry = eye_carry(self.carry, c, ps.pdf, at.gamma_eye(), at.sigma, ps.pdf);
         self.from = Some((r, ps.pdf));
+        self.leaving_first = self.first && !self.ctx.kernels.deep;
         self.first = false;
         self.crossed = 1.0;
         Next::Scatter { o: x, d: ps.wi }
@@ -996,6 +1041,7 @@ impl EyeVisitor for CombinedEye<'_> {
         let p_rev = at.p_light(bs.wi);
         self.carry = eye_carry(self.carry, c, p_rev, gamma_in, bs.wi.dot(hit.ng).abs(), bs.pdf);
         self.from = Some((r, bs.pdf));
+        self.leaving_first = self.first && !self.ctx.kernels.deep;
         self.first = false;
         self.crossed = 1.0;
         Next::Scatter { o: r.p, d: bs.wi }
@@ -1011,6 +1057,18 @@ impl EyeVisitor for CombinedEye<'_> {
     }
 
     fn survive(&mut self, path: &mut EyePath) -> bool {
+        if std::mem::take(&mut self.leaving_first) {
+            // Past its first merges the path goes on with the pilot's chance (Russian
+            // roulette: what it adds from here on is divided by it).
+            self.deep = Some((path.l, Work::here()));
+            let q = self.ctx.continues;
+            if q < 1.0 {
+                if path.s.next_f32() >= q {
+                    return false;
+                }
+                path.beta /= q;
+            }
+        }
         roulette(&mut path.beta, path.depth, &mut path.s)
     }
 }

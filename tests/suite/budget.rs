@@ -47,13 +47,16 @@ fn the_pilot_keeps_light_paths_where_they_carry_the_light() {
     assert_eq!(ranked, [12_500, 6_250, 3_125, 1_562, 0]);
     // Every photon of an area light's paths is on the eye's techniques' reach.
     assert_eq!(pilot.measured[0].merges_only, 0.0);
-    // The best of the counts, or none where that ranks ahead by the margin (0.8).
+    // The best of the counts, or none where that ranks ahead by the margin (0.8) of the best
+    // count going on always past the first merge (at most the scene's count's 1).
     let counts = pilot.ranked.iter().filter(|r| r.0 > 0);
     let best = counts.min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
     let zero = pilot.ranked.iter().find(|r| r.0 == 0).unwrap();
-    let want = if zero.1 < 0.8 * best.1 { 0 } else { best.0 };
-    assert_eq!(b.paths, want, "{b:?}");
-    assert_eq!(pilot.ranked[0], (12_500, 1.0));
+    assert!(b.paths == best.0 || b.paths == 0 && zero.1 < 0.8, "{b:?}");
+    // The scene's count at its best chance of going on past the first merge: at most what
+    // going on always gives (1, the reference of the ranking).
+    assert_eq!(pilot.ranked[0].0, 12_500);
+    assert!(pilot.ranked[0].1 <= 1.0, "{b:?}");
     // The merges' part of the variance is part of it.
     let whole = &pilot.measured[0];
     assert!(whole.merge_variance > 0.0 && whole.merge_variance < whole.variance, "{whole:?}");
@@ -111,12 +114,18 @@ fn the_render_traces_the_chosen_count() {
 fn a_fixed_budget_and_a_technique_alone_run_no_pilot() {
     let s = scene("cornell-box.toml", [32, 32]);
     let fixed = RenderSettings { photon_budget: Some(PhotonBudget::Fixed), ..combined(&s, 8_000) };
-    assert_eq!(budget(&s, &fixed), Budget { paths: 8_000, pilot: None });
+    assert_eq!(
+        budget(&s, &fixed),
+        Budget { paths: 8_000, continues: 1.0, ends_at_merge: false, pilot: None }
+    );
     let only = RenderSettings {
         only: Some("surface+point".parse::<Techniques>().unwrap()),
         ..combined(&s, 8_000)
     };
-    assert_eq!(budget(&s, &only), Budget { paths: 8_000, pilot: None });
+    assert_eq!(
+        budget(&s, &only),
+        Budget { paths: 8_000, continues: 1.0, ends_at_merge: false, pilot: None }
+    );
     let hybrid = RenderSettings { integrator: Integrator::Hybrid, ..combined(&s, 8_000) };
     assert!(light_path_budget(&s, &hybrid, &AtomicBool::new(false)).unwrap().is_none());
 }
@@ -132,4 +141,60 @@ fn ending_at_the_first_merge_refuses_emitting_media() {
     // The other integrators ignore the setting.
     let hybrid = RenderSettings { integrator: Integrator::Hybrid, iterations: Some(1), ..last };
     render(&fire, &hybrid, &mut Silent, &AtomicBool::new(false)).unwrap();
+}
+
+/// Eye paths that go on past their first merge by Russian roulette where the pilot finds their
+/// deeper vertices worth less than they cost, and always where they carry the light. In
+/// cornell-fog at the size and count of the combined integrator's reference test
+/// (`references::the_combined_integrator_matches_the_path_traced_references`, which so checks
+/// the roulette for bias) they go on with a chance below 1; in vdb-cloud, where the eye's
+/// deeper vertices carry the cloud's multiple scattering, always. The chosen chance is the best
+/// of the candidates where it wins by the margin (0.8).
+#[test]
+fn the_eye_goes_on_past_its_first_merge_where_that_pays() {
+    let fog = scene("cornell-fog.toml", [96, 96]);
+    let b = budget(&fog, &combined(&fog, 20_000));
+    let pilot = b.pilot.as_ref().expect("the pilot ran");
+    assert!(b.continues < 1.0, "{b:?}");
+    let best = pilot.continuation.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert_eq!(best.0, b.continues);
+    assert!(best.1 < 0.8, "{b:?}");
+    // The deeper vertices add light and cost work.
+    let whole = &pilot.measured[0];
+    assert!(whole.deep_moment > 0.0 && whole.deep_cost > 0.0 && whole.deep_cost < whole.cost);
+
+    let cloud = scene("vdb-cloud.toml", [160, 100]);
+    let b = budget(&cloud, &combined(&cloud, 20_000));
+    assert_eq!(b.continues, 1.0, "{b:?}");
+}
+
+/// Where the settings leave the merges open, the pilot ends the eye paths at their first merge
+/// (`merges = "last"`) where their deeper vertices take at least 0.6 of an iteration's modelled
+/// cost: in dense-fog (a random walk of ~1,000 events per path), on every seed, and not in
+/// cornell-fog. A scene that sets the merges, or whose media emit, keeps what it has.
+#[test]
+fn the_pilot_ends_eye_paths_at_their_first_merge_where_they_walk_long() {
+    let dense = scene("dense-fog.toml", [96, 96]);
+    for seed in 1..=3 {
+        let b = budget(&dense, &RenderSettings { seed, ..combined(&dense, 125) });
+        let pilot = b.pilot.as_ref().expect("the pilot ran");
+        assert!(b.ends_at_merge && pilot.deep_share >= 0.6, "seed {seed}: {b:?}");
+        assert_eq!(b.continues, 1.0);
+    }
+    // The render traces the count chosen with them.
+    let b = budget(&dense, &combined(&dense, 125));
+    let image = render(&dense, &combined(&dense, 125), &mut Silent, &AtomicBool::new(false));
+    assert_eq!(image.unwrap().info.light_paths, 2 * b.paths);
+
+    let fog = scene("cornell-fog.toml", [48, 48]);
+    let b = budget(&fog, &combined(&fog, 8_000));
+    let pilot = b.pilot.as_ref().expect("the pilot ran");
+    assert!(!b.ends_at_merge && pilot.deep_share > 0.0 && pilot.deep_share < 0.6, "{b:?}");
+
+    // Set by the scene or the command line: kept.
+    let first = RenderSettings { merges: Some(Merges::First), ..combined(&dense, 125) };
+    assert!(!budget(&dense, &first).ends_at_merge);
+    // Emitting media.
+    let fire = scene("fire.toml", [16, 16]);
+    assert!(!budget(&fire, &combined(&fire, 1_000)).ends_at_merge);
 }

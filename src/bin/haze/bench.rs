@@ -204,6 +204,28 @@ fn report_budget(b: &haze::Budget, asked: u64) {
     }
     let ranked: Vec<String> = p.ranked.iter().map(|(n, r)| format!("{n}: {r:.3}")).collect();
     println!("predicted variance × cost per iteration, relative: {}", ranked.join(", "));
+    if let Some(m) = p.measured.first() {
+        println!(
+            "past the eye's first merge: second moment {:.4e}, modelled {:.2} ms of the eye's work",
+            m.deep_moment,
+            m.deep_cost * 1e-6
+        );
+    }
+    println!(
+        "the eye's vertices past its first merge take {:.2} of an iteration's modelled cost{}",
+        p.deep_share,
+        if b.ends_at_merge {
+            ": eye paths end at their first merge (merges = \"last\")"
+        } else {
+            ""
+        }
+    );
+    let each: Vec<String> = p.continuation.iter().map(|(q, r)| format!("{q}: {r:.3}")).collect();
+    println!(
+        "eye paths go on past their first merge with chance {} (relative variance × cost: {})",
+        b.continues,
+        each.join(", ")
+    );
 }
 
 /// Prints what one iteration's photons were used for, and what the guiding pilot found.

@@ -73,6 +73,13 @@ pub(super) const PILOT_SEED: u64 = 0x7069_6c6f_745f_6e6c;
 pub struct Budget {
     /// Light paths per iteration.
     pub paths: u64,
+    /// The chance with which an eye path goes on past its first merge (Russian roulette, its
+    /// contributions from there on divided by it): 1 unless the pilot found the eye's deeper
+    /// vertices worth less than they cost.
+    pub continues: f32,
+    /// The pilot chose to end eye paths at their first merge (`Merges::Last`): where the settings
+    /// leave the merges open, the eye's deeper vertices cost most of an iteration.
+    pub ends_at_merge: bool,
     /// The pilot's measurements and ranking; `None` where no pilot ran (the count was
     /// fixed, or no merge counts).
     pub pilot: Option<Pilot>,
@@ -87,6 +94,13 @@ pub struct Pilot {
     /// Each candidate count, with its predicted variance times cost per iteration relative to
     /// the scene's count's, the smaller the better.
     pub ranked: Vec<(u64, f64)>,
+    /// For the chosen count, each chance of going on past the first merge
+    /// ([`Budget::continues`]) with its predicted variance times cost relative to going on
+    /// always.
+    pub continuation: Vec<(f32, f64)>,
+    /// The share of an iteration's modelled cost, at the scene's count, that the eye's vertices
+    /// past its first merge take (what ends them there where the merges are open).
+    pub deep_share: f64,
     /// Pixels rendered per pilot iteration, and the image's pixels.
     pub pixels: (usize, usize),
     /// Seconds the pilot took (reported only; the choice never reads the clock).
@@ -120,6 +134,13 @@ pub struct Measured {
     /// Work of one iteration's eye paths over the whole image: rays, tentative collisions,
     /// photons found.
     pub eye: [f64; 3],
+    /// The second moment of what the eye's vertices past its first merge add to a pixel, summed
+    /// over the pilot's pixels and channels (not held to a quantile: rare large values are what
+    /// Russian roulette on them multiplies).
+    pub deep_moment: f64,
+    /// The cost model's nanoseconds per iteration of the eye's work past its first merge, over
+    /// the whole image (part of `cost`).
+    pub deep_cost: f64,
     /// The cost model's nanoseconds per iteration.
     pub cost: f64,
     /// Seconds per pilot iteration, photon pass and camera pass over the pilot's pixels
@@ -128,11 +149,13 @@ pub struct Measured {
 }
 
 /// What pilot iterations with one count of light paths gave: per pixel the sums of the image's
-/// values and squares and of its merges' part's, and the work and time of the iterations.
+/// values and squares and of its merges' part's, and of the squares of what the eye's vertices
+/// past its first merge added; and the work and time of the iterations.
 pub(super) struct Tallies {
-    sums: Vec<[Rgb; 4]>,
+    sums: Vec<[Rgb; 5]>,
     light: Work,
     eye: Work,
+    deep: Work,
     stored: u64,
     merges_only: u64,
     seconds: [f64; 2],
@@ -143,13 +166,24 @@ pub(super) struct Tallies {
 /// them only a merge can carry (an empty light side) and the seconds it took.
 pub(super) type PhotonPassDone = (Work, u64, u64, f64);
 
+/// One pixel of a pilot iteration: its value, its merges' part, what the eye's vertices past
+/// its first merge added, the eye's work and that part of it.
+pub(super) struct PixelDone {
+    pub value: Rgb,
+    pub merged: Rgb,
+    pub deep: Rgb,
+    pub work: Work,
+    pub deep_work: Work,
+}
+
 impl Tallies {
     /// None yet, over `pixels` pixels.
     pub(super) fn new(pixels: usize) -> Self {
         Self {
-            sums: vec![[Rgb::ZERO; 4]; pixels],
+            sums: vec![[Rgb::ZERO; 5]; pixels],
             light: Work::default(),
             eye: Work::default(),
+            deep: Work::default(),
             stored: 0,
             merges_only: 0,
             seconds: [0.0; 2],
@@ -157,15 +191,9 @@ impl Tallies {
         }
     }
 
-    /// One pilot iteration: its photon pass, and for each pixel its value, its merges' part and
-    /// the eye's work (a pixel whose value is not finite counts as black, as in a render), the
-    /// camera pass having taken `camera` seconds.
-    pub(super) fn add(
-        &mut self,
-        photons: PhotonPassDone,
-        pixels: &[(Rgb, Rgb, Work)],
-        camera: f64,
-    ) {
+    /// One pilot iteration: its photon pass, and its pixels (a pixel whose value is not finite
+    /// counts as black, as in a render), the camera pass having taken `camera` seconds.
+    pub(super) fn add(&mut self, photons: PhotonPassDone, pixels: &[PixelDone], camera: f64) {
         let (light, stored, merges_only, seconds) = photons;
         self.light += light;
         self.stored += stored;
@@ -173,11 +201,16 @@ impl Tallies {
         self.seconds[0] += seconds;
         self.seconds[1] += camera;
         self.iterations += 1;
-        for (s, &(v, m, w)) in self.sums.iter_mut().zip(pixels) {
-            let (v, m) =
-                if v.is_finite() && m.is_finite() { (v, m) } else { (Rgb::ZERO, Rgb::ZERO) };
-            *s = [s[0] + v, s[1] + v * v, s[2] + m, s[3] + m * m];
-            self.eye += w;
+        for (s, p) in self.sums.iter_mut().zip(pixels) {
+            let (v, m, d) = (p.value, p.merged, p.deep);
+            let (v, m, d) = if v.is_finite() && m.is_finite() && d.is_finite() {
+                (v, m, d)
+            } else {
+                (Rgb::ZERO, Rgb::ZERO, Rgb::ZERO)
+            };
+            *s = [s[0] + v, s[1] + v * v, s[2] + m, s[3] + m * m, s[4] + d * d];
+            self.eye += p.work;
+            self.deep += p.deep_work;
         }
     }
 
@@ -189,6 +222,8 @@ impl Tallies {
             let (s, s2) = (sum.as_dvec3(), squares.as_dvec3());
             ((s2 - s * s / k) / (k - 1.0)).max(glam::DVec3::ZERO).element_sum()
         };
+        let deep_moment: f64 =
+            self.sums.iter().map(|s| s[4].as_dvec3().element_sum()).sum::<f64>() / k;
         let (variance, merge_variance, mean) = if self.iterations < 2 {
             (0.0, 0.0, [0.0; 2])
         } else {
@@ -208,6 +243,11 @@ impl Tallies {
             + NS_PER_STEP * (light[1] + eye[1])
             + NS_PER_FOUND * eye[2]
             + NS_PER_STORED * stored;
+        let deep = self.deep;
+        let deep_cost = (NS_PER_RAY * per(deep.rays)
+            + NS_PER_STEP * per(deep.steps)
+            + NS_PER_FOUND * per(deep.found))
+            * scale;
         Measured {
             paths,
             iterations: self.iterations,
@@ -218,6 +258,8 @@ impl Tallies {
             stored,
             merges_only,
             eye,
+            deep_moment,
+            deep_cost,
             cost,
             seconds: self.seconds.map(|s| s / k),
         }
@@ -227,17 +269,19 @@ impl Tallies {
 /// The pilot for a render of `n` light paths per iteration at `resolution`, its pixels drawn
 /// from `seed`: `iterate(paths, iterations, pixels)` renders that many pilot iterations (at
 /// the radii of [`PILOT_ITERATION`] on) over the pixels. With `eye_alone` it may choose no
-/// light paths (the module's notes say when). `None` if `iterate` returned `None` (a stop).
+/// light paths, and with `last` end the eye paths at their first merge (the module's notes say
+/// when). `None` if `iterate` returned `None` (a stop).
 pub(super) fn choose(
     n: u64,
     resolution: [u32; 2],
     seed: u64,
     eye_alone: bool,
+    last: bool,
     mut iterate: impl FnMut(u64, u64, &[[u32; 2]]) -> Option<Tallies>,
 ) -> Option<Budget> {
     let eighth = DIVISORS[DIVISORS.len() - 1];
     if n < eighth {
-        return Some(Budget { paths: n, pilot: None });
+        return Some(Budget { paths: n, continues: 1.0, ends_at_merge: false, pilot: None });
     }
     let clock = Instant::now();
     let [w, h] = resolution;
@@ -252,14 +296,41 @@ pub(super) fn choose(
     };
     let eye_sees = zero.as_ref().filter(|z| sees_the_light(&whole, z));
     let ranked = rank(&whole, &fewest, eye_sees);
-    let best = pick(&ranked).unwrap_or(n);
+    let best = pick(&ranked, best_always(&whole, &fewest)).unwrap_or(n);
+    // The eye alone goes on always: its deeper vertices are all it has.
+    let continuation =
+        if best == 0 { vec![(1.0, 1.0)] } else { continuation(&whole, &fewest, best) };
+    let continues = pick_continuation(&continuation);
+    let deep_share = deep_share(&whole);
+    let ends_at_merge = last && best > 0 && deep_share >= LAST_DEEP_SHARE;
     let pilot = Pilot {
         measured: [whole, fewest].into_iter().chain(zero).collect(),
         ranked,
+        continuation,
+        deep_share,
         pixels: (pixels.len(), (w * h) as usize),
         seconds: clock.elapsed().as_secs_f64(),
     };
-    Some(Budget { paths: best, pilot: Some(pilot) })
+    let continues = if ends_at_merge { 1.0 } else { continues };
+    Some(Budget { paths: best, continues, ends_at_merge, pilot: Some(pilot) })
+}
+
+/// Eye paths end at their first merge (`Merges::Last`) where the settings leave the merges open
+/// and the eye's vertices past its first merge cost at least this share of an iteration (modelled,
+/// at the scene's count). There they are long random walks through a dense, bright medium, whose
+/// next-event estimation rarely finds light the light paths do not carry to the first merge at a
+/// fraction of the cost. dense-fog (albedo 0.999, ~1,000 events per path): 0.84 of the iteration,
+/// and `last` 0.60× the error at equal time; the other twelve bundled scenes: 0.16–0.39, among
+/// them vdb-cloud and vdb-edges, where `last` is 3.06× and 1.6× worse (docs/performance.md,
+/// "Ending the eye path at its first merge"). The choice reads cost, not variance: the pilot's
+/// variance of `last` against the default on dense-fog ranged over 0.08–3.9 of the default's
+/// product from one seed to the next (8 iterations of 125 light paths see a few rare events).
+const LAST_DEEP_SHARE: f64 = 0.6;
+
+/// The share of the modelled cost of an iteration at the scene's count (`whole`) that the eye's
+/// vertices past its first merge take.
+fn deep_share(whole: &Measured) -> f64 {
+    if whole.cost > 0.0 { (whole.deep_cost / whole.cost).min(1.0) } else { 0.0 }
 }
 
 /// The share of the pilot's pixels whose variance is kept as measured; the rest are held to the
@@ -331,37 +402,101 @@ fn sees_the_light(whole: &Measured, zero: &Measured) -> bool {
 const EYE_ALONE_MARGIN: f64 = 0.8;
 
 /// The count to render with from [`rank`]'s list: the best of the counts, or none where that
-/// was ranked ahead of it by [`EYE_ALONE_MARGIN`]. `None` for an empty list.
-fn pick(ranked: &[(u64, f64)]) -> Option<u64> {
+/// was ranked ahead of `always`, the best count's product going on always past the first merge,
+/// by [`EYE_ALONE_MARGIN`]. The margin was measured against counts that go on always; a count
+/// that goes on by Russian roulette is cheaper but no less biased by its merges, which the
+/// pilot does not see: against it the eye alone lost where the merges' kernel bias is part of
+/// the error (vdb-edges at equal time: 15.73 % with an eighth of the light paths and roulette,
+/// 12.50 % with none; docs/performance.md, "Past the first merge"). `None` for an empty list.
+fn pick(ranked: &[(u64, f64)], always: f64) -> Option<u64> {
     let (zero, counts): (Vec<&(u64, f64)>, Vec<_>) = ranked.iter().partition(|r| r.0 == 0);
     let best = counts.into_iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
     match zero.first() {
-        Some(z) if z.1 < EYE_ALONE_MARGIN * best.1 => Some(0),
+        Some(z) if z.1 < EYE_ALONE_MARGIN * always => Some(0),
         _ => Some(best.0),
     }
 }
 
+/// The best count's predicted variance × cost going on always past the first merge, relative
+/// as in [`rank`].
+fn best_always(whole: &Measured, eighth: &Measured) -> f64 {
+    let line = cost_line(whole, eighth);
+    let reference = product(whole, line, 1, 1.0);
+    let best = DIVISORS.iter().map(|&d| product(whole, line, d, 1.0)).fold(f64::INFINITY, f64::min);
+    if reference > 0.0 { best / reference } else { 1.0 }
+}
+
+/// The chances of an eye path going on past its first merge that the pilot chooses among
+/// ([`Budget::continues`]).
+pub(crate) const CONTINUES: [f32; 5] = [1.0, 0.5, 0.25, 0.125, 0.0625];
+
+/// A chance of going on below 1 is chosen only where it promises less than this share of going
+/// on always's variance × cost: the second moment it multiplies comes from 8 iterations, which
+/// under-count its rare large values. At equal time (docs/performance.md, "Past the first
+/// merge") roulette won where it promised 0.48–0.69 (cornell-fog, thin-fog,
+/// cornell-cloud-homogeneous) and lost on fog-backward (g = −0.95), where it promised 0.86.
+const CONTINUE_MARGIN: f64 = 0.8;
+
+/// Predicted variance × cost per iteration of count n/d going on past the first merge with
+/// chance q, from the scene's count's measurement (`whole`) and the cost line (`fixed` +
+/// `slope` per light path): the variance V + (d − 1) V_M + (1/q − 1) D, with D the second
+/// moment of what the eye adds past its first merge (Russian roulette with chance q adds
+/// (1/q − 1) times it), and the cost with that part of the eye's work times q.
+fn product(whole: &Measured, line: (f64, f64), d: u64, q: f32) -> f64 {
+    let (fixed, slope) = line;
+    let q = q as f64;
+    let variance = whole.variance
+        + (d - 1) as f64 * whole.merge_variance
+        + (1.0 / q - 1.0) * whole.deep_moment;
+    let cost = (fixed - (1.0 - q) * whole.deep_cost).max(0.0) + slope * (whole.paths / d) as f64;
+    variance * cost
+}
+
+/// The line of the cost in the light paths through the costs of `whole` and `eighth` (its
+/// coefficients at least 0: more light paths never save work): (fixed, per light path).
+fn cost_line(whole: &Measured, eighth: &Measured) -> (f64, f64) {
+    let (n, m) = (whole.paths as f64, eighth.paths as f64);
+    let slope = if n > m { ((whole.cost - eighth.cost) / (n - m)).max(0.0) } else { 0.0 };
+    ((whole.cost - slope * n).max(0.0), slope)
+}
+
 /// Each candidate count n/d, d in [`DIVISORS`], with its predicted variance times cost per
-/// iteration relative to count n's: the variance V + (d − 1) V_M from the scene's count
-/// (`whole`), the cost on the line through the costs of `whole` and `eighth` (its coefficients
-/// at least 0: more light paths never save work); then, if measured (`zero`), no light paths,
-/// its variance and cost as measured.
+/// iteration ([`product`], at the chance of going on [`pick_continuation`] chooses for it)
+/// relative to count n's going on always; then, if measured (`zero`), no light paths, its variance and cost as measured.
 pub(crate) fn rank(
     whole: &Measured,
     eighth: &Measured,
     zero: Option<&Measured>,
 ) -> Vec<(u64, f64)> {
-    let (n, m) = (whole.paths as f64, eighth.paths as f64);
-    let slope = if n > m { ((whole.cost - eighth.cost) / (n - m)).max(0.0) } else { 0.0 };
-    let fixed = (whole.cost - slope * n).max(0.0);
-    let product = |d: u64| {
-        let variance = whole.variance + (d - 1) as f64 * whole.merge_variance;
-        variance * (fixed + slope * (whole.paths / d) as f64)
-    };
-    let reference = product(1);
+    let line = cost_line(whole, eighth);
+    let reference = product(whole, line, 1, 1.0);
     let relative = |x: f64| if reference > 0.0 { x / reference } else { 1.0 };
-    let counts = DIVISORS.iter().map(|&d| (whole.paths / d, relative(product(d))));
+    let best = |d: u64| {
+        let q = pick_continuation(&continuation(whole, eighth, whole.paths / d));
+        relative(product(whole, line, d, q))
+    };
+    let counts = DIVISORS.iter().map(|&d| (whole.paths / d, best(d)));
     counts.chain(zero.map(|z| (0, relative(z.variance * z.cost)))).collect()
+}
+
+/// For count `paths` (one of [`rank`]'s), each of [`CONTINUES`] with its predicted variance ×
+/// cost relative to going on always.
+pub(crate) fn continuation(whole: &Measured, eighth: &Measured, paths: u64) -> Vec<(f32, f64)> {
+    let line = cost_line(whole, eighth);
+    let d = DIVISORS.into_iter().find(|&d| whole.paths / d == paths).unwrap_or(1);
+    let always = product(whole, line, d, 1.0);
+    let relative = |x: f64| if always > 0.0 { x / always } else { 1.0 };
+    CONTINUES.iter().map(|&q| (q, relative(product(whole, line, d, q)))).collect()
+}
+
+/// The chance to go on with from [`continuation`]'s list: the best, where it is ahead of going
+/// on always by [`CONTINUE_MARGIN`]; else 1.
+fn pick_continuation(list: &[(f32, f64)]) -> f32 {
+    let best = list.iter().min_by(|a, b| a.1.total_cmp(&b.1));
+    match best {
+        Some(&(q, x)) if x < CONTINUE_MARGIN => q,
+        _ => 1.0,
+    }
 }
 
 #[cfg(test)]
@@ -379,6 +514,8 @@ mod tests {
             stored: 0.0,
             merges_only: 0.0,
             eye: [0.0; 3],
+            deep_moment: 0.0,
+            deep_cost: 0.0,
             cost,
             seconds: [0.0; 2],
         }
@@ -406,6 +543,44 @@ mod tests {
         assert!(r.windows(2).all(|w| w[1].1 > w[0].1), "{r:?}");
     }
 
+    /// Going on past the first merge with chance q multiplies the deeper part's second moment
+    /// by 1/q − 1 and its cost by q: where the deeper vertices add nothing and cost much, the
+    /// smallest chance; where they add much, always.
+    #[test]
+    fn the_eye_goes_on_where_its_deeper_vertices_pay() {
+        let whole = |deep_moment: f64, deep_cost: f64| Measured {
+            deep_moment,
+            deep_cost,
+            ..measured(8000, 2.0, 1.0, 2.0)
+        };
+        let eighth = measured(1000, 0.0, 0.0, 1.125);
+        // Half the cost in the deeper vertices, which add nothing: V stays 2, the cost
+        // 2 − (1 − q), so q = 1/16 gives 1.0625 / 2.
+        let w = whole(0.0, 1.0);
+        let c = continuation(&w, &eighth, 8000);
+        assert_eq!(c.len(), CONTINUES.len());
+        assert_eq!(c[0], (1.0, 1.0));
+        let (q, x) = *c.last().unwrap();
+        assert_eq!(q, 0.0625);
+        assert!((x - 1.0625 / 2.0).abs() < 1e-12, "{x}");
+        assert_eq!(pick_continuation(&c), 0.0625);
+        // The same ranking sees it: the scene's count at its best chance.
+        let r = rank(&w, &eighth, None);
+        assert!((r[0].1 - 1.0625 / 2.0).abs() < 1e-12, "{r:?}");
+        // At q = 1/2 a deeper part of second moment 1 adds 1 to V = 2 and saves half its
+        // cost 1: (3 · 1.5) / (2 · 2) = 1.125, worse; smaller chances are worse still.
+        let c = continuation(&whole(1.0, 1.0), &eighth, 8000);
+        assert!((c[1].1 - 1.125).abs() < 1e-12, "{c:?}");
+        assert_eq!(pick_continuation(&c), 1.0);
+        // A gain short of the margin keeps going on always.
+        assert_eq!(pick_continuation(&[(1.0, 1.0), (0.5, 0.81)]), 1.0);
+        assert_eq!(pick_continuation(&[(1.0, 1.0), (0.5, 0.79)]), 0.5);
+        // At an eighth of the light paths: the count's own line.
+        let c = continuation(&w, &eighth, 1000);
+        // V = 2 + 7 · 1 = 9; cost 1.125 − (1 − q): q = 1/16 gives 0.1875 against 1.125.
+        assert!((c.last().unwrap().1 - 0.1875 / 1.125).abs() < 1e-12, "{c:?}");
+    }
+
     /// No light paths rank by their own measured variance and cost, after the counts.
     #[test]
     fn no_light_paths_rank_by_their_own_measurement() {
@@ -414,15 +589,21 @@ mod tests {
         let r = rank(&whole, &eighth, Some(&measured(0, 1.5, 0.0, 1.0)));
         assert_eq!(r.len(), DIVISORS.len() + 1);
         assert_eq!(r[DIVISORS.len()], (0, 0.375));
-        assert_eq!(pick(&r), Some(0));
+        assert_eq!(pick(&r, best_always(&whole, &eighth)), Some(0));
         // … and 5 · 1 is 1.25, behind the scene's count.
         let r = rank(&whole, &eighth, Some(&measured(0, 5.0, 0.0, 1.0)));
-        assert_eq!(pick(&r), Some(8000));
+        assert_eq!(pick(&r, best_always(&whole, &eighth)), Some(8000));
         // Ahead of the best count, but not by the margin: the count.
         let r = [(8000, 1.0), (4000, 0.5), (0, 0.41)];
-        assert_eq!(pick(&r), Some(4000));
+        assert_eq!(pick(&r, 0.5), Some(4000));
         let r = [(8000, 1.0), (4000, 0.5), (0, 0.39)];
-        assert_eq!(pick(&r), Some(0));
+        assert_eq!(pick(&r, 0.5), Some(0));
+        // The margin is against the best count going on always: a count ranked ahead by its
+        // roulette does not move it.
+        let r = [(8000, 0.6), (4000, 0.3), (0, 0.39)];
+        assert_eq!(pick(&r, 0.5), Some(0));
+        let r = [(8000, 0.6), (4000, 0.3), (0, 0.41)];
+        assert_eq!(pick(&r, 0.5), Some(4000));
     }
 
     /// The eye alone is taken to have missed light where its mean falls more than 3 standard
