@@ -91,6 +91,9 @@ pub(crate) struct Plan {
     /// Split light paths by importance (photon mapping and the combined integrator, in scenes
     /// with media).
     pub splitting: bool,
+    /// Let the combined integrator's light-path pilot turn splitting on where light paths run
+    /// long (`PhotonSplitting::Auto`).
+    pub splitting_auto: bool,
     /// The surface schedule (dimension 2) …
     pub surface: Schedule,
     /// … and the volume schedule, for both volume estimates.
@@ -163,6 +166,10 @@ impl Plan {
             // The original PPM, a comparison mode, stays the classic method.
             splitting: settings.photon_splitting == PhotonSplitting::Importance
                 && matches!(method, MethodKind::PhotonMapping | MethodKind::Combined)
+                && settings.progression == Progression::Probabilistic
+                && scene.has_media(),
+            splitting_auto: settings.photon_splitting == PhotonSplitting::Auto
+                && method == MethodKind::Combined
                 && settings.progression == Progression::Probabilistic
                 && scene.has_media(),
             guiding: settings.photon_guiding == PhotonGuiding::Visibility

@@ -36,7 +36,7 @@
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
 //! emission_nee_distance = 2  # emitting media's light on surfaces from ≥ this far by next-event estimation (hybrid; off if absent)
 //! photon_guiding = "visibility"  # emit photons towards what the camera sees, or "off"
-//! photon_splitting = "off"  # or "importance": split light paths where the camera looks, in media
+//! photon_splitting = "auto" # "off" or "importance": split light paths where the camera looks, in media
 //! ```
 
 use crate::choices::choices;
@@ -112,8 +112,12 @@ choices! {
 choices! {
     /// Whether light paths are split and ended by their worth to the image, in media.
     pub enum PhotonSplitting ("photon splitting") {
-        /// Light paths go on as they are (the default).
+        /// Light paths go on as they are.
         Off = "off",
+        /// The combined integrator's light-path pilot splits by importance where the light
+        /// paths run long (more than 32 photons stored per path at the scene's count: dense,
+        /// bright media); the other integrators do not split (the default).
+        Auto = "auto",
         /// By importance (docs/theory.md, "Light paths split by importance"): a pilot of eye
         /// random walks estimates what a light path at each point of a grid adds to the image,
         /// and at every collision in a medium a path worth more than twice the average emitted
@@ -564,10 +568,12 @@ render_settings! {
     photon_guiding: PhotonGuiding = PhotonGuiding::Visibility, any;
 
     /// Split and end light paths by their worth to the image at collisions in media:
-    /// `importance` (from a pilot of eye random walks) or `off`. Photon mapping and the combined
-    /// integrator; unbiased either way.
+    /// `importance` (from a pilot of eye random walks), `off`, or `auto` (the default: the
+    /// combined integrator's light-path pilot splits where light paths run long, more than 32
+    /// photons stored per path; the other integrators do not split). Photon mapping and the
+    /// combined integrator; unbiased either way.
     [long, value_name = "KIND"]
-    photon_splitting: PhotonSplitting = PhotonSplitting::Off, any;
+    photon_splitting: PhotonSplitting = PhotonSplitting::Auto, any;
 
     /// Thin volume photons in thinning cells (cubes holding ~4 photons on average) holding more
     /// than this many: each is kept with probability budget/count and its power divided by it —
@@ -600,9 +606,11 @@ render_settings! {
     [long, value_name = "T+T"]
     only: Techniques, optional = None, any;
 
-    /// With the combined integrator, where eye paths merge with photons: `first` (the default),
-    /// at their first vertex that is not specular, or `everywhere`, at every vertex (UPBP's
-    /// set of techniques). The other integrators ignore it.
+    /// With the combined integrator, where eye paths merge with photons: `first`, at their
+    /// first vertex that is not specular, `everywhere`, at every vertex (UPBP's set of
+    /// techniques), or `last`, at the first, where the eye path ends. Unset, `first`, or `last`
+    /// where the light-path pilot finds the eye's deeper vertices costing most of an iteration.
+    /// The other integrators ignore it.
     [long, value_name = "WHERE"]
     merges: Merges, optional = None, any;
 

@@ -167,7 +167,14 @@ impl Combined {
                 self.importance =
                     super::splitting::learn(scene, &self.lights, &self.plan, stop).ok()?;
             }
-            self.budget = Some(self.choose_budget(scene, stop)?);
+            let mut budget = self.choose_budget(scene, stop)?;
+            if self.plan.splitting_auto && budget.pilot.as_ref().is_some_and(runs_long) {
+                // Light paths that run long: split them, and choose again with them split.
+                self.importance =
+                    super::splitting::learn(scene, &self.lights, &self.plan, stop).ok()?;
+                budget = Budget { split: true, ..self.choose_budget(scene, stop)? };
+            }
+            self.budget = Some(budget);
         }
         self.budget.as_ref()
     }
@@ -177,7 +184,7 @@ impl Combined {
     fn choose_budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<Budget> {
         let n = self.plan.paths;
         if !self.plan.budget_pilot || !self.merges() {
-            return Some(Budget { paths: n, continues: 1.0, ends_at_merge: false, pilot: None });
+            return Some(Budget::fixed(n));
         }
         let seed = self.plan.seed ^ budget::PILOT_SEED;
         // The eye's techniques alone, where they count: next-event estimation and the eye
@@ -392,6 +399,17 @@ fn camera_pass(
     }
     layers.iterations += 1;
     true
+}
+
+/// Light paths store at least this many photons each on average, at the scene's count, where
+/// `photon_splitting = "auto"` splits them: dense-fog (albedo 0.999, optical thickness 120)
+/// stores 213 per path, the other twelve bundled scenes 0.5–4.3 (docs/performance.md, "Past the
+/// first merge, and ending there").
+const SPLIT_STORED: f64 = 32.0;
+
+/// Whether the pilot's light paths at the scene's count run long ([`SPLIT_STORED`]).
+fn runs_long(p: &budget::Pilot) -> bool {
+    p.measured.first().is_some_and(|m| m.paths > 0 && m.stored >= SPLIT_STORED * m.paths as f64)
 }
 
 /// One pilot iteration's eye paths over `pixels` (`budget.rs`).

@@ -175,6 +175,11 @@ fn report_budget(b: &haze::Budget, asked: u64) {
         "light paths per iteration: {} of the {asked} asked for, chosen by the pilot ({:.3} s, once per render; {} of {} pixels per pilot iteration)",
         b.paths, p.seconds, p.pixels.0, p.pixels.1
     );
+    if b.split {
+        println!(
+            "light paths split by importance (photon_splitting = \"auto\": they ran long); the pilot measured them split"
+        );
+    }
     println!(
         "| light paths | pilot iterations | variance per iteration (merges' part) | mean ± standard error | light rays | light steps | stored | eye rays | eye steps | photons found | modelled ms | measured ms (photons + camera) |"
     );

@@ -22,6 +22,14 @@
 //! light from a point or spot light by way of a mirror or glass), and where merges are made at
 //! the eye's first vertex only (deeper merges enter the photons' light side).
 //!
+//! The same measurements set how the eye goes on past its first merge: by Russian roulette with
+//! a chance below 1 where what its deeper vertices add is worth less than their work
+//! ([`continuation`]), or not at all where those vertices take most of an iteration and the
+//! settings leave the merges open ([`LAST_DEEP_SHARE`]). The second moment of the deeper part
+//! is measured at the scene's count and used for every count, where with fewer light paths the
+//! weights move some light towards the eye's techniques: the roulette's cost at n/8 is
+//! somewhat under-predicted.
+//!
 //! Every input is a function of the scene, the settings and the seed, so the choice is the same
 //! on every machine, thread count and split of the render into processes; the clock is read
 //! only to report.
@@ -80,9 +88,19 @@ pub struct Budget {
     /// The pilot chose to end eye paths at their first merge (`Merges::Last`): where the settings
     /// leave the merges open, the eye's deeper vertices cost most of an iteration.
     pub ends_at_merge: bool,
+    /// Light paths are split by importance because the pilot found them running long
+    /// (`photon_splitting = "auto"`); the pilot's measurements are then those with them split.
+    pub split: bool,
     /// The pilot's measurements and ranking; `None` where no pilot ran (the count was
     /// fixed, or no merge counts).
     pub pilot: Option<Pilot>,
+}
+
+impl Budget {
+    /// `paths` light paths per iteration, fixed: no pilot ran.
+    pub fn fixed(paths: u64) -> Self {
+        Self { paths, continues: 1.0, ends_at_merge: false, split: false, pilot: None }
+    }
 }
 
 /// What the pilot measured.
@@ -269,8 +287,8 @@ impl Tallies {
 /// The pilot for a render of `n` light paths per iteration at `resolution`, its pixels drawn
 /// from `seed`: `iterate(paths, iterations, pixels)` renders that many pilot iterations (at
 /// the radii of [`PILOT_ITERATION`] on) over the pixels. With `eye_alone` it may choose no
-/// light paths, and with `last` end the eye paths at their first merge (the module's notes say
-/// when). `None` if `iterate` returned `None` (a stop).
+/// light paths (the module's notes say when), and with `last` end the eye paths at their first
+/// merge ([`LAST_DEEP_SHARE`]). `None` if `iterate` returned `None` (a stop).
 pub(super) fn choose(
     n: u64,
     resolution: [u32; 2],
@@ -281,7 +299,7 @@ pub(super) fn choose(
 ) -> Option<Budget> {
     let eighth = DIVISORS[DIVISORS.len() - 1];
     if n < eighth {
-        return Some(Budget { paths: n, continues: 1.0, ends_at_merge: false, pilot: None });
+        return Some(Budget::fixed(n));
     }
     let clock = Instant::now();
     let [w, h] = resolution;
@@ -303,6 +321,9 @@ pub(super) fn choose(
     let continues = pick_continuation(&continuation);
     let deep_share = deep_share(&whole);
     let ends_at_merge = last && best > 0 && deep_share >= LAST_DEEP_SHARE;
+    // Ending at the first merge leaves nothing past it to go on to.
+    let (continues, continuation) =
+        if ends_at_merge { (1.0, vec![(1.0, 1.0)]) } else { (continues, continuation) };
     let pilot = Pilot {
         measured: [whole, fewest].into_iter().chain(zero).collect(),
         ranked,
@@ -311,8 +332,7 @@ pub(super) fn choose(
         pixels: (pixels.len(), (w * h) as usize),
         seconds: clock.elapsed().as_secs_f64(),
     };
-    let continues = if ends_at_merge { 1.0 } else { continues };
-    Some(Budget { paths: best, continues, ends_at_merge, pilot: Some(pilot) })
+    Some(Budget { paths: best, continues, ends_at_merge, split: false, pilot: Some(pilot) })
 }
 
 /// Eye paths end at their first merge (`Merges::Last`) where the settings leave the merges open
@@ -448,7 +468,10 @@ fn product(whole: &Measured, line: (f64, f64), d: u64, q: f32) -> f64 {
     let variance = whole.variance
         + (d - 1) as f64 * whole.merge_variance
         + (1.0 / q - 1.0) * whole.deep_moment;
-    let cost = (fixed - (1.0 - q) * whole.deep_cost).max(0.0) + slope * (whole.paths / d) as f64;
+    // `fixed` is extrapolated from two counts and may fall below the deeper part it holds: the
+    // work left of that part is q times it at least.
+    let eye = (fixed - (1.0 - q) * whole.deep_cost).max(q * whole.deep_cost);
+    let cost = eye + slope * (whole.paths / d) as f64;
     variance * cost
 }
 
