@@ -91,8 +91,8 @@ pub(crate) struct Plan {
     /// Split light paths by importance (photon mapping and the combined integrator, in scenes
     /// with media).
     pub splitting: bool,
-    /// Let the combined integrator's light-path pilot turn splitting on where light paths run
-    /// long (`PhotonSplitting::Auto`).
+    /// Let the combined integrator turn splitting on, before its light-path pilot, where light
+    /// paths run long (`PhotonSplitting::Auto`).
     pub splitting_auto: bool,
     /// The surface schedule (dimension 2) …
     pub surface: Schedule,
@@ -149,6 +149,11 @@ impl Plan {
         };
         check_method(scene, settings, method)?;
         let hybrid = settings.integrator == Integrator::Hybrid;
+        // Light paths may be split (asked for, or where they run long): probabilistic PPM in a
+        // scene with media; the original PPM, a comparison mode, stays the classic method.
+        let splits = matches!(method, MethodKind::PhotonMapping | MethodKind::Combined)
+            && settings.progression == Progression::Probabilistic
+            && scene.has_media();
         Ok(Self {
             method,
             seed: settings.seed,
@@ -163,15 +168,10 @@ impl Plan {
             kernel: settings.kernel,
             estimate: settings.volume_estimate,
             beam_cell_budget: settings.beam_cell_budget,
-            // The original PPM, a comparison mode, stays the classic method.
-            splitting: settings.photon_splitting == PhotonSplitting::Importance
-                && matches!(method, MethodKind::PhotonMapping | MethodKind::Combined)
-                && settings.progression == Progression::Probabilistic
-                && scene.has_media(),
-            splitting_auto: settings.photon_splitting == PhotonSplitting::Auto
-                && method == MethodKind::Combined
-                && settings.progression == Progression::Probabilistic
-                && scene.has_media(),
+            splitting: splits && settings.photon_splitting == PhotonSplitting::Importance,
+            splitting_auto: splits
+                && settings.photon_splitting == PhotonSplitting::Auto
+                && method == MethodKind::Combined,
             guiding: settings.photon_guiding == PhotonGuiding::Visibility
                 && method == MethodKind::PhotonMapping
                 && settings.progression == Progression::Probabilistic

@@ -114,9 +114,9 @@ choices! {
     pub enum PhotonSplitting ("photon splitting") {
         /// Light paths go on as they are.
         Off = "off",
-        /// The combined integrator's light-path pilot splits by importance where the light
-        /// paths run long (more than 32 photons stored per path at the scene's count: dense,
-        /// bright media); the other integrators do not split (the default).
+        /// The combined integrator splits by importance, before its light-path pilot, where the
+        /// light paths run long (more than 32 photons stored per path at the scene's count:
+        /// dense, bright media); the other integrators do not split (the default).
         Auto = "auto",
         /// By importance (docs/theory.md, "Light paths split by importance"): a pilot of eye
         /// random walks estimates what a light path at each point of a grid adds to the image,
@@ -569,9 +569,9 @@ render_settings! {
 
     /// Split and end light paths by their worth to the image at collisions in media:
     /// `importance` (from a pilot of eye random walks), `off`, or `auto` (the default: the
-    /// combined integrator's light-path pilot splits where light paths run long, more than 32
-    /// photons stored per path; the other integrators do not split). Photon mapping and the
-    /// combined integrator; unbiased either way.
+    /// combined integrator splits where one photon pass finds light paths running long, more
+    /// than 32 photons stored per path; the other integrators do not split). Photon mapping and
+    /// the combined integrator; unbiased either way.
     [long, value_name = "KIND"]
     photon_splitting: PhotonSplitting = PhotonSplitting::Auto, any;
 

@@ -163,20 +163,25 @@ impl Combined {
     /// iteration has). `None` if `stop` was raised first.
     pub(crate) fn budget(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<&Budget> {
         if self.budget.is_none() {
-            if self.plan.splitting {
+            let auto = self.plan.splitting_auto && self.runs_long(scene, stop)?;
+            if self.plan.splitting || auto {
                 self.importance =
                     super::splitting::learn(scene, &self.lights, &self.plan, stop).ok()?;
             }
-            let mut budget = self.choose_budget(scene, stop)?;
-            if self.plan.splitting_auto && budget.pilot.as_ref().is_some_and(runs_long) {
-                // Light paths that run long: split them, and choose again with them split.
-                self.importance =
-                    super::splitting::learn(scene, &self.lights, &self.plan, stop).ok()?;
-                budget = Budget { split: true, ..self.choose_budget(scene, stop)? };
-            }
-            self.budget = Some(budget);
+            self.budget = Some(Budget { split: auto, ..self.choose_budget(scene, stop)? });
         }
         self.budget.as_ref()
+    }
+
+    /// Whether the light paths run long (`photon_splitting = "auto"`): one photon pass of the
+    /// scene's count, unsplit, on the pilot's streams, stores at least [`SPLIT_STORED`] photons
+    /// per path. `None` if `stop` was raised first.
+    fn runs_long(&mut self, scene: &Scene, stop: &AtomicBool) -> Option<bool> {
+        let (seed, n) = (self.plan.seed ^ budget::PILOT_SEED, self.plan.paths);
+        let mut times = StepTimes::default();
+        self.photons_at(scene, seed, budget::PILOT_ITERATION, n, stop, &mut times)?;
+        let stored = (self.photons.surface.len() + self.photons.volume.len()) as f64;
+        Some(n > 0 && stored >= SPLIT_STORED * n as f64)
     }
 
     /// The light paths per iteration: the plan's where it fixes them or where nothing merges,
@@ -225,7 +230,7 @@ impl Combined {
             let spent = times.photon_trace + times.surface_map + times.volume_map;
             let clock = Instant::now();
             let ctx = self.context(scene, seed, i, paths, kernels);
-            let values = pilot_pixels(&ctx, pixels);
+            let values = pilot_walks(&ctx, pixels);
             if stop.load(Ordering::Relaxed) {
                 return None;
             }
@@ -407,13 +412,8 @@ fn camera_pass(
 /// first merge, and ending there").
 const SPLIT_STORED: f64 = 32.0;
 
-/// Whether the pilot's light paths at the scene's count run long ([`SPLIT_STORED`]).
-fn runs_long(p: &budget::Pilot) -> bool {
-    p.measured.first().is_some_and(|m| m.paths > 0 && m.stored >= SPLIT_STORED * m.paths as f64)
-}
-
 /// One pilot iteration's eye paths over `pixels` (`budget.rs`).
-fn pilot_pixels(ctx: &Context, pixels: &[[u32; 2]]) -> Vec<PixelDone> {
+fn pilot_walks(ctx: &Context, pixels: &[[u32; 2]]) -> Vec<PixelDone> {
     pixels
         .par_iter()
         .with_max_len(8)

@@ -198,10 +198,10 @@ fn the_pilot_ends_eye_paths_at_their_first_merge_where_they_walk_long() {
     assert!(!budget(&fire, &combined(&fire, 1_000)).ends_at_merge);
 }
 
-/// `photon_splitting = "auto"` (the default): the combined integrator's pilot splits light paths
-/// by importance where they store more than 32 photons each at the scene's count — dense-fog's
-/// random walks, not cornell-fog's — and measures its choice again with them split; `"off"`
-/// never splits.
+/// `photon_splitting = "auto"` (the default): the combined integrator splits light paths by
+/// importance where one unsplit photon pass of the scene's count stores more than 32 photons
+/// per path — dense-fog's random walks, not cornell-fog's — and its pilot then measures them
+/// split; `"off"` never splits.
 #[test]
 fn light_paths_that_run_long_are_split() {
     use haze::settings::PhotonSplitting;

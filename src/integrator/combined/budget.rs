@@ -88,7 +88,7 @@ pub struct Budget {
     /// The pilot chose to end eye paths at their first merge (`Merges::Last`): where the settings
     /// leave the merges open, the eye's deeper vertices cost most of an iteration.
     pub ends_at_merge: bool,
-    /// Light paths are split by importance because the pilot found them running long
+    /// Light paths are split by importance because they were found running long
     /// (`photon_splitting = "auto"`); the pilot's measurements are then those with them split.
     pub split: bool,
     /// The pilot's measurements and ranking; `None` where no pilot ran (the count was
@@ -316,8 +316,8 @@ pub(super) fn choose(
     let ranked = rank(&whole, &fewest, eye_sees);
     let best = pick(&ranked, best_always(&whole, &fewest)).unwrap_or(n);
     // The eye alone goes on always: its deeper vertices are all it has.
-    let continuation =
-        if best == 0 { vec![(1.0, 1.0)] } else { continuation(&whole, &fewest, best) };
+    let divisor = DIVISORS.into_iter().find(|&d| best > 0 && n / d == best);
+    let continuation = divisor.map_or(vec![(1.0, 1.0)], |d| continuation(&whole, &fewest, d));
     let continues = pick_continuation(&continuation);
     let deep_share = deep_share(&whole);
     let ends_at_merge = last && best > 0 && deep_share >= LAST_DEEP_SHARE;
@@ -495,18 +495,17 @@ pub(crate) fn rank(
     let reference = product(whole, line, 1, 1.0);
     let relative = |x: f64| if reference > 0.0 { x / reference } else { 1.0 };
     let best = |d: u64| {
-        let q = pick_continuation(&continuation(whole, eighth, whole.paths / d));
+        let q = pick_continuation(&continuation(whole, eighth, d));
         relative(product(whole, line, d, q))
     };
     let counts = DIVISORS.iter().map(|&d| (whole.paths / d, best(d)));
     counts.chain(zero.map(|z| (0, relative(z.variance * z.cost)))).collect()
 }
 
-/// For count `paths` (one of [`rank`]'s), each of [`CONTINUES`] with its predicted variance ×
-/// cost relative to going on always.
-pub(crate) fn continuation(whole: &Measured, eighth: &Measured, paths: u64) -> Vec<(f32, f64)> {
+/// For count n/`d` ([`DIVISORS`]), each of [`CONTINUES`] with its predicted variance × cost
+/// relative to going on always.
+pub(crate) fn continuation(whole: &Measured, eighth: &Measured, d: u64) -> Vec<(f32, f64)> {
     let line = cost_line(whole, eighth);
-    let d = DIVISORS.into_iter().find(|&d| whole.paths / d == paths).unwrap_or(1);
     let always = product(whole, line, d, 1.0);
     let relative = |x: f64| if always > 0.0 { x / always } else { 1.0 };
     CONTINUES.iter().map(|&q| (q, relative(product(whole, line, d, q)))).collect()
@@ -580,7 +579,7 @@ mod tests {
         // Half the cost in the deeper vertices, which add nothing: V stays 2, the cost
         // 2 − (1 − q), so q = 1/16 gives 1.0625 / 2.
         let w = whole(0.0, 1.0);
-        let c = continuation(&w, &eighth, 8000);
+        let c = continuation(&w, &eighth, 1);
         assert_eq!(c.len(), CONTINUES.len());
         assert_eq!(c[0], (1.0, 1.0));
         let (q, x) = *c.last().unwrap();
@@ -592,14 +591,14 @@ mod tests {
         assert!((r[0].1 - 1.0625 / 2.0).abs() < 1e-12, "{r:?}");
         // At q = 1/2 a deeper part of second moment 1 adds 1 to V = 2 and saves half its
         // cost 1: (3 · 1.5) / (2 · 2) = 1.125, worse; smaller chances are worse still.
-        let c = continuation(&whole(1.0, 1.0), &eighth, 8000);
+        let c = continuation(&whole(1.0, 1.0), &eighth, 1);
         assert!((c[1].1 - 1.125).abs() < 1e-12, "{c:?}");
         assert_eq!(pick_continuation(&c), 1.0);
         // A gain short of the margin keeps going on always.
         assert_eq!(pick_continuation(&[(1.0, 1.0), (0.5, 0.81)]), 1.0);
         assert_eq!(pick_continuation(&[(1.0, 1.0), (0.5, 0.79)]), 0.5);
         // At an eighth of the light paths: the count's own line.
-        let c = continuation(&w, &eighth, 1000);
+        let c = continuation(&w, &eighth, 8);
         // V = 2 + 7 · 1 = 9; cost 1.125 − (1 − q): q = 1/16 gives 0.1875 against 1.125.
         assert!((c.last().unwrap().1 - 0.1875 / 1.125).abs() < 1e-12, "{c:?}");
     }
