@@ -102,6 +102,11 @@ pub(crate) fn collision_share(sigma: f32, l: f32) -> f32 {
     if x > 0.0 { -(-x).exp_m1() } else { 0.0 }
 }
 
+/// The optical depth σ l past which [`collision_share`] is exactly 1 in `f32` (e^{−18} is below
+/// half of `f32`'s spacing under 1): a light path looks for the surface behind a collision no
+/// farther than this over σ, and a segment that long or longer gives the same share.
+pub(crate) const SHARE_SATURATES: f32 = 18.0;
+
 /// The eye's density of crossing such a segment without a collision over free flight's:
 /// (1 − P) / T = 2 − T, with P = (1 − T)² ([`collision_share`]). A vertex the eye reaches past
 /// such crossings has its density times their product (a collision's also times its share);
@@ -266,6 +271,20 @@ fn clamp(x: f32) -> f32 {
 mod tests {
     use super::*;
     use crate::rng::{Purpose, Sampler};
+
+    /// A light path's search for the surface behind a collision stops at SHARE_SATURATES / σ:
+    /// every segment at least that deep gives a share of exactly 1 (whatever σ), as an unbounded
+    /// search would, and a shallower one (optical depth 16) does not.
+    #[test]
+    fn the_collision_share_saturates_where_the_search_stops() {
+        for sigma in [1e-3_f32, 0.37, 1.0, 60.0, 4.1e3] {
+            let reach = SHARE_SATURATES / sigma;
+            for l in [reach, reach * 1.0001, reach * 3.0, f32::INFINITY] {
+                assert_eq!(collision_share(sigma, l), 1.0, "σ {sigma}, l {l}");
+            }
+            assert!(collision_share(sigma, 16.0 / sigma) < 1.0, "σ {sigma}");
+        }
+    }
 
     /// A vertex of a random abstract path: its site, the cosines (or σ) towards its two
     /// neighbours, and the densities with which a light path (arriving from x_{i−1}) and an eye

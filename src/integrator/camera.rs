@@ -13,7 +13,7 @@ use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::Estimate;
 use crate::estimate::surface::{Gather, surface_radiance};
-use crate::estimate::volume::{EyeSegment, beam_radiance, point_radiance};
+use crate::estimate::volume::{BeamReach, EyeSegment, beam_radiance, point_radiance};
 use crate::math::{Rgb, luminance};
 use crate::medium::{BEAM_SEGMENT_RATE, Medium, SegmentTransmittance};
 use crate::photon::beam::BeamMap;
@@ -206,8 +206,10 @@ impl<F: FnMut(Vec3, Vec3, Rgb, Rgb, BounceRange) -> Estimate> EyeVisitor for Pho
                 let (beams, volume, bounces) =
                     (self.maps.volume_beams, &self.pass.gather, self.bounces(path));
                 let tally = self.maps.marks.map(|t| (&t.volume, luminance(path.beta)));
-                let e =
-                    timed(|| beam_radiance(beams, m, id, &segment, &tr, volume, bounces, tally));
+                let reach = BeamReach::new(&tr, t_max, &mut path.s);
+                let e = timed(|| {
+                    beam_radiance(beams, m, id, &segment, &tr, reach, volume, bounces, tally)
+                });
                 self.add(path, e);
                 path.beta *= tr.at(t_max);
                 Next::Continue

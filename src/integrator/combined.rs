@@ -28,6 +28,7 @@ use crate::estimate::mis::{
     merge_total, nee_weight,
 };
 use crate::estimate::surface::{Gather, NORMAL_COS};
+use crate::estimate::volume::BeamReach;
 use crate::math::{Rgb, offset_origin};
 use crate::medium::{Medium, SegmentTransmittance, TransmittanceDistance};
 use crate::photon::beam::BeamMap;
@@ -729,7 +730,8 @@ impl CombinedEye<'_> {
         let radius = ctx.beams.radius();
         let inv_r2 = 1.0 / (radius * radius);
         let (mut sum, mut inner) = (Rgb::ZERO, Rgb::ZERO);
-        ctx.beams.query_slots(o, d, t_max, |ph, slot, t, d2| {
+        let reach = BeamReach::new(tr, t_max, &mut path.s);
+        ctx.beams.query_slots(o, d, t_max.min(reach.end), |ph, slot, t, d2| {
             if ph.medium as u32 != id || !bounces.contains(ph.bounces) {
                 return;
             }
@@ -744,7 +746,7 @@ impl CombinedEye<'_> {
             let v = phase.eval(ph.d, -d);
             let total = merge_total(ctx.light_side(rec.light), v, kp + kb, carry, v, gamma_eye);
             // The beam map stores β·σ_s.
-            let f = ph.beta * tr.at(t) * (v * ctx.w(weight(kb, total)));
+            let f = ph.beta * tr.at(t) * (v * ctx.w(weight(kb, total)) * reach.at(t));
             let (k, k_inner) = ctx.gather.kernel.eval_pair(d2 * inv_r2, 2);
             sum += f * k;
             inner += f * k_inner;

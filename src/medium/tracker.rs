@@ -86,6 +86,22 @@ impl SegmentTransmittance {
             SegmentTransmittance::Steps(steps) => steps_at(steps, t),
         }
     }
+
+    /// The distance past which T(0, t) is at most e^{−`depth`} in every channel: `depth` over
+    /// the smallest extinction of an exponential (infinite where a channel has none); for a step
+    /// function, where its last step falls to zero (the walk's Russian roulette ended it), past
+    /// which it is zero, and infinite if it never does.
+    pub fn reach(&self, depth: f32) -> f32 {
+        let over = |sigma: f32| if sigma > 0.0 { depth / sigma } else { f32::INFINITY };
+        match self {
+            SegmentTransmittance::Exponential { sigma_t } => over(sigma_t.min_element()),
+            SegmentTransmittance::Grey { sigma_t } => over(*sigma_t),
+            SegmentTransmittance::Steps(steps) => match steps.last() {
+                Some(&(t, v)) if v.max_element() <= 0.0 => t,
+                _ => f32::INFINITY,
+            },
+        }
+    }
 }
 
 /// A medium whose coefficients are the same everywhere, for the closed forms.

@@ -9,7 +9,9 @@ use super::guide::{EmissionGuide, Guided, guided};
 use super::importance::{Fate, Importance};
 use super::{Photon, VolumePhoton};
 use crate::accel::Hit;
-use crate::estimate::mis::{Emitted, Kernels, LightMis, Site, collision_share, crossing_share};
+use crate::estimate::mis::{
+    Emitted, Kernels, LightMis, SHARE_SATURATES, Site, collision_share, crossing_share,
+};
 use crate::math::{Rgb, offset_origin};
 use crate::medium::Medium;
 use crate::rng::{Purpose, Sampler};
@@ -555,7 +557,10 @@ impl<'a> Tracing<'a> {
             // density factor of this collision is free flight's, σ, in a grid; in a homogeneous
             // medium its share of it needs the eye's segment through here.
             let homogeneous = matches!(m, Medium::Homogeneous(_)).then(|| {
-                let behind = scene.intersect(p, -ps.wi, f32::INFINITY);
+                // Past SHARE_SATURATES / σ the share is 1 whatever lies behind: a ray bounded
+                // there costs far less in a dense medium, and gives the same weights.
+                let reach = if sigma > 0.0 { SHARE_SATURATES / sigma } else { f32::INFINITY };
+                let behind = scene.intersect(p, -ps.wi, reach);
                 (sigma, behind.map_or(f32::INFINITY, |h| h.t))
             });
             mis.leave(Site::Medium(sigma), ps.pdf, sigma, ps.pdf, homogeneous);
