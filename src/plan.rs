@@ -17,8 +17,8 @@ use crate::estimate::kernel::Kernel;
 use crate::estimate::radius::radius;
 use crate::scene::Scene;
 use crate::settings::{
-    Integrator, Merges, PhotonBudget, PhotonGuiding, PhotonSplitting, Progression, RenderSettings,
-    Techniques, VolumeEstimate,
+    Integrator, Merges, PhotonBudget, PhotonGuiding, PhotonSplitting, PointMerges, Progression,
+    RenderSettings, Techniques, VolumeEstimate,
 };
 
 /// The smallest initial radius accepted, relative to the scene's bounding-box diagonal: below it
@@ -108,6 +108,8 @@ pub(crate) struct Plan {
     /// end the eye paths at their first merge (`Merges::Last`) where their deeper vertices cost
     /// most of an iteration.
     pub merges_open: bool,
+    /// Whether the combined integrator weighs point–point merges (`PointMerges`).
+    pub point_merges: PointMerges,
     /// Let a pilot choose the light paths per iteration among fractions of `paths` (the
     /// combined integrator, with every technique counting).
     pub budget_pilot: bool,
@@ -184,6 +186,7 @@ impl Plan {
             // it for the combined integrator and still be rendered with another).
             merges: settings.merges.unwrap_or(Merges::First),
             merges_open: settings.merges.is_none(),
+            point_merges: settings.point_merges,
             // Each technique alone is a check of that technique at the count asked for.
             budget_pilot: method == MethodKind::Combined
                 && settings.photon_budget != Some(PhotonBudget::Fixed)

@@ -127,6 +127,20 @@ choices! {
 }
 
 choices! {
+    /// Whether the combined integrator weighs point–point merges at the eye's collisions in
+    /// media.
+    pub enum PointMerges ("point merges") {
+        /// Off where the eye paths end at their first merge (`merges = "last"`, or the
+        /// light-path pilot's choice of it: dense, bright media), on elsewhere (the default).
+        Auto = "auto",
+        /// Always: every volume merge of UPBP's set.
+        On = "on",
+        /// Never: the beam alone merges in media.
+        Off = "off",
+    }
+}
+
+choices! {
     /// A technique of the combined integrator, for `only`.
     pub enum Technique ("technique") {
         /// The eye path reaches an area light.
@@ -613,6 +627,15 @@ render_settings! {
     /// The other integrators ignore it.
     [long, value_name = "WHERE"]
     merges: Merges, optional = None, any;
+
+    /// With the combined integrator, whether point–point merges at the eye's collisions in
+    /// media are weighed with the beam's: `auto` (the default), off where the eye paths end at
+    /// their first merge and on elsewhere; `on`; or `off`, the beam alone. Where the eye ends at
+    /// its first merge the point merge adds the noise of where its collision falls to light the
+    /// beam gathers along the same segment (dense-fog: 0.83× the relative RMSE at equal time
+    /// without it; docs/performance.md, "Point merges"). The other integrators ignore it.
+    [long, value_name = "WHEN"]
+    point_merges: PointMerges = PointMerges::Auto, any;
 
     /// With the combined integrator, how its light paths per iteration are set: `pilot` (the
     /// default), a pilot before the first iteration picks 1, 1/2, 1/4 or 1/8 of `photons`, or

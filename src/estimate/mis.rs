@@ -471,7 +471,7 @@ mod tests {
     /// For random paths of every length, kind of vertex and light, and both sets of merges (at
     /// every eye vertex, or at the first that is not specular), the weights the carried
     /// quantities give each technique equal its density over the sum of all techniques'
-    /// densities (computed by definition), and so sum to one. A wrong density in any technique
+    /// densities (computed by definition), and so sum to one; also without point merges. A wrong density in any technique
     /// (a missing cosine, a reversed direction, a beam without its 1/σ) changes its weight and
     /// fails the comparison.
     #[test]
@@ -480,9 +480,11 @@ mod tests {
         for trial in 0..2000 {
             let k = 2 + trial % 7;
             let p = random_path(&mut s, k);
+            let (surface, point) = (0.02 + s.next_f32(), 0.01 + s.next_f32());
             let kernels = Kernels {
-                surface: 0.02 + s.next_f32(),
-                point: 0.01 + s.next_f32(),
+                surface,
+                // One trial in three without point merges (`point_merges`): their density 0.
+                point: if trial % 3 == 2 { 0.0 } else { point },
                 beam: 0.05 + s.next_f32(),
                 // Both technique sets: merges everywhere (UPBP's) and at the first vertex.
                 deep: trial % 2 == 0,

@@ -40,7 +40,7 @@ use crate::plan::{Plan, Radii};
 use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
-use crate::settings::{Merges, Technique, Techniques};
+use crate::settings::{Merges, PointMerges, Technique, Techniques};
 use crate::work::Work;
 pub(crate) use budget::Budget;
 use budget::{PixelDone, Tallies};
@@ -170,6 +170,10 @@ impl Combined {
                     super::splitting::learn(scene, &self.lights, &self.plan, stop).ok()?;
             }
             self.budget = Some(Budget { split: auto, ..self.choose_budget(scene, stop)? });
+            let point_merges = self.point_merges();
+            if let Some(b) = self.budget.as_mut() {
+                b.point_merges = point_merges;
+            }
         }
         self.budget.as_ref()
     }
@@ -241,6 +245,23 @@ impl Combined {
         Some(tallies)
     }
 
+    /// Whether point–point merges are weighed (`PointMerges`): with `only`, where it names
+    /// them; else as the setting says, `auto` off where the eye paths end at their first merge
+    /// (asked for, or the pilot's choice once made).
+    pub(crate) fn point_merges(&self) -> bool {
+        if self.plan.only.is_some() {
+            return self.counts(Technique::Point);
+        }
+        match self.plan.point_merges {
+            PointMerges::On => true,
+            PointMerges::Off => false,
+            PointMerges::Auto => {
+                self.plan.merges != Merges::Last
+                    && !self.budget.as_ref().is_some_and(|b| b.ends_at_merge)
+            }
+        }
+    }
+
     /// Whether technique `t` counts (`Plan::only`).
     fn counts(&self, t: Technique) -> bool {
         counts(self.plan.only, t)
@@ -269,7 +290,11 @@ impl Combined {
         // which the densities in the weights do not see as noise, and each costs a query
         // (`Merges`; docs/performance.md, "Where the eye merges", measures both).
         let deep = self.plan.merges == Merges::Everywhere;
-        let kernels = Kernels::new(paths, radii.surface, radii.volume, deep);
+        let mut kernels = Kernels::new(paths, radii.surface, radii.volume, deep);
+        // Without point merges their density is 0 in every weight: the other techniques' MIS.
+        if !self.point_merges() {
+            kernels.point = 0.0;
+        }
         let clock = Instant::now();
         let pass = PhotonPass {
             seed,
@@ -367,7 +392,11 @@ impl Combined {
     /// The volume photons for point queries and for beam queries, at radius `r`.
     fn build_volume_maps(&mut self, scene: &Scene, i: u64, r: f32) {
         let photons = &self.photons.volume;
-        self.volume_points.build(photons, r);
+        if self.point_merges() {
+            self.volume_points.build(photons, r);
+        } else {
+            self.volume_points.build(&[], r);
+        }
         super::ppm::build_beam_map(&mut self.volume_beams, photons, scene, &self.plan, i, r);
     }
 }

@@ -5,7 +5,7 @@
 
 use crate::common::scene_path;
 use haze::progress::Silent;
-use haze::settings::{Integrator, Merges, PhotonBudget, Techniques};
+use haze::settings::{Integrator, Merges, PhotonBudget, PointMerges, Techniques};
 use haze::{Budget, RenderSettings, Scene, light_path_budget, render};
 use std::sync::atomic::AtomicBool;
 
@@ -170,7 +170,9 @@ fn the_eye_goes_on_past_its_first_merge_where_that_pays() {
 /// Where the settings leave the merges open, the pilot ends the eye paths at their first merge
 /// (`merges = "last"`) where their deeper vertices take at least 0.6 of an iteration's modelled
 /// cost: in dense-fog (a random walk of ~1,000 events per path), on every seed, and not in
-/// cornell-fog. A scene that sets the merges, or whose media emit, keeps what it has.
+/// cornell-fog. A scene that sets the merges, or whose media emit, keeps what it has. Where the
+/// eye ends at its first merge, by the pilot or the settings, point merges are off unless the
+/// settings turn them on.
 #[test]
 fn the_pilot_ends_eye_paths_at_their_first_merge_where_they_walk_long() {
     let dense = scene("dense-fog.toml", [96, 96]);
@@ -179,7 +181,12 @@ fn the_pilot_ends_eye_paths_at_their_first_merge_where_they_walk_long() {
         let pilot = b.pilot.as_ref().expect("the pilot ran");
         assert!(b.ends_at_merge && pilot.deep_share >= 0.6, "seed {seed}: {b:?}");
         assert_eq!(b.continues, 1.0);
+        // There the beam alone merges in the medium (`point_merges = "auto"`).
+        assert!(!b.point_merges, "seed {seed}: {b:?}");
     }
+    let on = RenderSettings { point_merges: PointMerges::On, ..combined(&dense, 125) };
+    let b = budget(&dense, &on);
+    assert!(b.ends_at_merge && b.point_merges, "{b:?}");
     // The render traces the count chosen with them.
     let b = budget(&dense, &combined(&dense, 125));
     let image = render(&dense, &combined(&dense, 125), &mut Silent, &AtomicBool::new(false));
@@ -189,6 +196,13 @@ fn the_pilot_ends_eye_paths_at_their_first_merge_where_they_walk_long() {
     let b = budget(&fog, &combined(&fog, 8_000));
     let pilot = b.pilot.as_ref().expect("the pilot ran");
     assert!(!b.ends_at_merge && pilot.deep_share > 0.0 && pilot.deep_share < 0.6, "{b:?}");
+    assert!(b.point_merges, "{b:?}");
+    // Eye paths that end at their first merge because the settings say so: no point merges
+    // either, unless asked for.
+    let last = RenderSettings { merges: Some(Merges::Last), ..combined(&fog, 8_000) };
+    assert!(!budget(&fog, &last).point_merges);
+    let off = RenderSettings { point_merges: PointMerges::Off, ..combined(&fog, 8_000) };
+    assert!(!budget(&fog, &off).point_merges);
 
     // Set by the scene or the command line: kept.
     let first = RenderSettings { merges: Some(Merges::First), ..combined(&dense, 125) };

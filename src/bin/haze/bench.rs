@@ -167,6 +167,10 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
 
 /// Prints the combined integrator's light paths per iteration and what its pilot measured.
 fn report_budget(b: &haze::Budget, asked: u64) {
+    println!(
+        "point–point merges: {}",
+        if b.point_merges { "weighed" } else { "off (the beam alone merges in media)" }
+    );
     let Some(p) = &b.pilot else {
         println!("light paths per iteration: {} (fixed)", b.paths);
         return;

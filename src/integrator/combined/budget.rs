@@ -91,6 +91,9 @@ pub struct Budget {
     /// Light paths are split by importance because they were found running long
     /// (`photon_splitting = "auto"`); the pilot's measurements are then those with them split.
     pub split: bool,
+    /// Point–point merges are weighed (`point_merges`; by default not where the eye paths end
+    /// at their first merge).
+    pub point_merges: bool,
     /// The pilot's measurements and ranking; `None` where no pilot ran (the count was
     /// fixed, or no merge counts).
     pub pilot: Option<Pilot>,
@@ -99,7 +102,8 @@ pub struct Budget {
 impl Budget {
     /// `paths` light paths per iteration, fixed: no pilot ran.
     pub fn fixed(paths: u64) -> Self {
-        Self { paths, continues: 1.0, ends_at_merge: false, split: false, pilot: None }
+        let (continues, ends_at_merge, split, point_merges) = (1.0, false, false, true);
+        Self { paths, continues, ends_at_merge, split, point_merges, pilot: None }
     }
 }
 
@@ -332,7 +336,8 @@ pub(super) fn choose(
         pixels: (pixels.len(), (w * h) as usize),
         seconds: clock.elapsed().as_secs_f64(),
     };
-    Some(Budget { paths: best, continues, ends_at_merge, split: false, pilot: Some(pilot) })
+    let (split, point_merges, pilot) = (false, true, Some(pilot));
+    Some(Budget { paths: best, continues, ends_at_merge, split, point_merges, pilot })
 }
 
 /// Eye paths end at their first merge (`Merges::Last`) where the settings leave the merges open
