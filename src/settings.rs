@@ -633,7 +633,8 @@ render_settings! {
     /// their first merge and on elsewhere; `on`; or `off`, the beam alone. Where the eye ends at
     /// its first merge the point merge adds the noise of where its collision falls to light the
     /// beam gathers along the same segment (dense-fog: 0.83× the relative RMSE at equal time
-    /// without it; docs/performance.md, "Point merges"). The other integrators ignore it.
+    /// without it; docs/performance.md, "Point merges"). With `only`, point merges count where
+    /// it names them. The other integrators ignore it.
     [long, value_name = "WHEN"]
     point_merges: PointMerges = PointMerges::Auto, any;
 

@@ -48,9 +48,10 @@ pub(crate) const BEAM_TAIL_CHANCE: f32 = 1.0 / 32.0;
 /// homogeneous medium (every channel's), the rest of the segment is gathered with chance
 /// [`BEAM_TAIL_CHANCE`] and its photons then count 1 / chance: unbiased, and in a dense medium a
 /// gather no longer finds the photons all along a segment that its transmittance has made
-/// worthless (dense-fog, optical depth 120 across the room). A photon there weighs at most
-/// e^{−10} = 4.5 · 10⁻⁵ of one at the segment's start, so the roulette adds at most 32 × that
-/// squared, 7 · 10⁻⁸, to its second moment. A grid's step function that its walk's roulette
+/// worthless (dense-fog, optical depth 120 across the room). A photon there has at most
+/// e^{−10} = 4.5 · 10⁻⁵ of the transmittance at the segment's start, so the roulette adds at
+/// most (32 − 1) × that squared, 6 · 10⁻⁸, to the second moment relative to the transmittance
+/// (the photons' powers and weights are what they are). A grid's step function that its walk's roulette
 /// ended at zero ends the gather there, exactly (no draw). Where the segment is shallower than
 /// that, nothing is drawn.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,7 +81,7 @@ impl BeamReach {
     /// The weight of a photon at `t`.
     #[inline]
     pub(crate) fn at(&self, t: f32) -> f32 {
-        if t > self.tail { self.scale } else { 1.0 }
+        if t >= self.tail { self.scale } else { 1.0 }
     }
 }
 

@@ -834,7 +834,10 @@ impl CombinedEye<'_> {
         }
         let (phase, bounces, carry, d) = (at.m.phase(), self.bounces(path), self.carry, at.d);
         let (kp, gamma_eye) = (ctx.kernels.point, at.gamma_eye());
-        let bound = kp / (kp + phase.min_value() * carry / gamma_eye);
+        // No point merges (their kernel 0, also with no light paths): a bound of 0, which draws
+        // the roulette's number as any bound below it does and gathers nothing (not 0 / 0 at
+        // the eye's first vertex, where the carry is 0).
+        let bound = if kp > 0.0 { kp / (kp + phase.min_value() * carry / gamma_eye) } else { 0.0 };
         let Some(chance) = self.gather_chance(path, bound) else { return };
         let radius = ctx.points.radius();
         let inv_r2 = 1.0 / (radius * radius);
