@@ -169,11 +169,9 @@ impl Combined {
                 self.importance =
                     super::splitting::learn(scene, &self.lights, &self.plan, stop).ok()?;
             }
-            self.budget = Some(Budget { split: auto, ..self.choose_budget(scene, stop)? });
-            let point_merges = self.point_merges();
-            if let Some(b) = self.budget.as_mut() {
-                b.point_merges = point_merges;
-            }
+            let b = self.choose_budget(scene, stop)?;
+            let point_merges = point_merges(&self.plan, b.ends_at_merge);
+            self.budget = Some(Budget { split: auto, point_merges, ..b });
         }
         self.budget.as_ref()
     }
@@ -245,21 +243,10 @@ impl Combined {
         Some(tallies)
     }
 
-    /// Whether point–point merges are weighed (`PointMerges`): with `only`, where it names
-    /// them; else as the setting says, `auto` off where the eye paths end at their first merge
-    /// (asked for, or the pilot's choice once made).
-    pub(crate) fn point_merges(&self) -> bool {
-        if self.plan.only.is_some() {
-            return self.counts(Technique::Point);
-        }
-        match self.plan.point_merges {
-            PointMerges::On => true,
-            PointMerges::Off => false,
-            PointMerges::Auto => {
-                self.plan.merges != Merges::Last
-                    && !self.budget.as_ref().is_some_and(|b| b.ends_at_merge)
-            }
-        }
+    /// Whether point–point merges are weighed: the budget's choice once made, the plan's
+    /// before (during the pilot).
+    fn point_merges(&self) -> bool {
+        self.budget.as_ref().map_or_else(|| point_merges(&self.plan, false), |b| b.point_merges)
     }
 
     /// Whether technique `t` counts (`Plan::only`).
@@ -392,11 +379,9 @@ impl Combined {
     /// The volume photons for point queries and for beam queries, at radius `r`.
     fn build_volume_maps(&mut self, scene: &Scene, i: u64, r: f32) {
         let photons = &self.photons.volume;
-        if self.point_merges() {
-            self.volume_points.build(photons, r);
-        } else {
-            self.volume_points.build(&[], r);
-        }
+        // Without point merges the point map stays empty.
+        let points = if self.point_merges() { photons.as_slice() } else { &[] };
+        self.volume_points.build(points, r);
         super::ppm::build_beam_map(&mut self.volume_beams, photons, scene, &self.plan, i, r);
     }
 }
@@ -434,6 +419,20 @@ fn camera_pass(
     }
     layers.iterations += 1;
     true
+}
+
+/// Whether point–point merges are weighed under `plan` (`PointMerges`), the pilot having
+/// ended the eye paths at their first merge or not: with `only`, where it names them; else as
+/// the setting says, `auto` off where the eye paths end at their first merge.
+fn point_merges(plan: &Plan, ends_at_merge: bool) -> bool {
+    if plan.only.is_some() {
+        return counts(plan.only, Technique::Point);
+    }
+    match plan.point_merges {
+        PointMerges::On => true,
+        PointMerges::Off => false,
+        PointMerges::Auto => plan.merges != Merges::Last && !ends_at_merge,
+    }
 }
 
 /// Light paths store at least this many photons each on average, at the scene's count, where

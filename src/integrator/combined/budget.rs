@@ -92,7 +92,8 @@ pub struct Budget {
     /// (`photon_splitting = "auto"`); the pilot's measurements are then those with them split.
     pub split: bool,
     /// Point–point merges are weighed (`point_merges`; by default not where the eye paths end
-    /// at their first merge).
+    /// at their first merge). The pilot's own result leaves it `true`; the integrator sets it
+    /// from the settings and `ends_at_merge`.
     pub point_merges: bool,
     /// The pilot's measurements and ranking; `None` where no pilot ran (the count was
     /// fixed, or no merge counts).
