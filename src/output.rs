@@ -222,6 +222,8 @@ impl Image {
         let i = &self.info;
         let method = match i.settings.integrator {
             Integrator::Path => "path tracer (unbiased)".to_string(),
+            // A render records the integrator `auto` stood for; only a hand-made header has it.
+            Integrator::Auto => "the default integrator (consistent, not unbiased)".to_string(),
             Integrator::Combined => format!(
                 "combined estimator ({} light paths, final radius {:.3e}, volume radius {:.3e}; consistent, not unbiased)",
                 i.light_paths, i.radius, i.volume_radius

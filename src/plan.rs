@@ -131,26 +131,27 @@ impl Plan {
             alpha: settings.volume_alpha,
             dimension: settings.volume_dimension,
         };
-        if settings.integrator.uses_photons() {
+        let integrator = settings.integrator.resolve(scene.has_emissive_media());
+        if integrator.uses_photons() {
             check_radii(diagonal, &surface, &volume)?;
         }
         if let Some(r) = settings.target_region {
             let [w, h] = scene.camera.resolution;
             r.check_within(w, h).map_err(|m| Error::Settings(format!("target_region: {m}")))?;
         }
-        let method = match (settings.integrator, settings.progression) {
+        let method = match (integrator, settings.progression) {
             (Integrator::Path, _) => MethodKind::Path,
             (Integrator::Combined, Progression::Probabilistic) => MethodKind::Combined,
             (Integrator::Combined, Progression::Original) => {
                 return Err(Error::Settings(
-                    "progression: \"original\" is a comparison mode of photon mapping; the combined integrator runs on the probabilistic schedule".into(),
+                    "progression: \"original\" is a comparison mode of photon mapping (integrator = \"photons\"); the combined integrator runs on the probabilistic schedule".into(),
                 ));
             }
             (_, Progression::Probabilistic) => MethodKind::PhotonMapping,
             (_, Progression::Original) => MethodKind::Original,
         };
         check_method(scene, settings, method)?;
-        let hybrid = settings.integrator == Integrator::Hybrid;
+        let hybrid = integrator == Integrator::Hybrid;
         // Light paths may be split (asked for, or where they run long): probabilistic PPM in a
         // scene with media; the original PPM, a comparison mode, stays the classic method.
         let splits = matches!(method, MethodKind::PhotonMapping | MethodKind::Combined)

@@ -96,6 +96,19 @@ pub fn render_partial(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<Partial> {
+    // What the render records: the integrator `auto` stands for in this scene.
+    let settings = settings.resolved(scene.has_emissive_media());
+    render_resolved(scene, &settings, start, progress, stop)
+}
+
+/// [`render_partial`] with settings whose integrator is the one that renders.
+fn render_resolved(
+    scene: &Scene,
+    settings: &RenderSettings,
+    start: Start,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<Partial> {
     let plan = Plan::new(scene, settings)?;
     let fingerprint = scene.fingerprint();
     let mut method = Method::new(scene, &plan);

@@ -47,7 +47,12 @@ use serde::{Deserialize, Serialize};
 choices! {
     /// Which integrator renders.
     pub enum Integrator ("integrator") {
-        /// Light sampling where it wins, photons where they must (the default): direct light by
+        /// The default: the combined integrator, or the hybrid in a scene whose media emit (the
+        /// combined integrator's light paths start at lights only, so there the light of
+        /// emitting media would reach surfaces through eye paths alone: docs/performance.md,
+        /// "The default integrator").
+        Auto = "auto",
+        /// Light sampling where it wins, photons where they must: direct light by
         /// next-event estimation at diffuse surfaces and along eye segments in media (MIS with
         /// BSDF sampling, equiangular and transmittance distances); photons only for light that
         /// interacted at least once on its way (through glass, after scattering).
@@ -60,7 +65,7 @@ choices! {
         /// Every estimator at once, weighed by multiple importance sampling: eye paths that
         /// reach lights, next-event estimation, and photon merging on surfaces, at points and
         /// along beams in media (UPBP's techniques without connections and photon beams;
-        /// docs/theory.md).
+        /// docs/theory.md). The default in scenes whose media do not emit.
         Combined = "combined",
     }
 }
@@ -69,6 +74,16 @@ impl Integrator {
     /// True for the integrators that trace photons.
     pub fn uses_photons(self) -> bool {
         self != Integrator::Path
+    }
+
+    /// The integrator that renders a scene, given whether its media emit: `Auto` is the
+    /// combined integrator, or the hybrid where media emit; any other choice is itself.
+    pub fn resolve(self, emitting_media: bool) -> Integrator {
+        match self {
+            Integrator::Auto if emitting_media => Integrator::Hybrid,
+            Integrator::Auto => Integrator::Combined,
+            chosen => chosen,
+        }
     }
 }
 
@@ -560,10 +575,11 @@ render_settings! {
     [long, value_name = "D"]
     volume_dimension: u32 = 3, dimension;
 
-    /// Integrator: the hybrid of light sampling and photons, photon mapping alone, or the
-    /// unbiased reference path tracer.
+    /// Integrator: `auto` (the default: `combined`, or `hybrid` in a scene whose media emit),
+    /// every estimator weighed by multiple importance sampling, the hybrid of light sampling and
+    /// photons, photon mapping alone, or the unbiased reference path tracer.
     [long, value_name = "NAME"]
-    integrator: Integrator = Integrator::Hybrid, any;
+    integrator: Integrator = Integrator::Auto, any;
 
     /// Probabilistic PPM (one radius per iteration, image = mean of iterations), or the original
     /// PPM's per-pixel statistics (a comparison mode for surfaces only).
@@ -768,6 +784,12 @@ impl RenderSettings {
         Ok(())
     }
 
+    /// These settings with the integrator a scene is rendered with ([`Integrator::resolve`]):
+    /// what a render records, so that its output names the integrator that made it.
+    pub fn resolved(&self, emitting_media: bool) -> Self {
+        Self { integrator: self.integrator.resolve(emitting_media), ..self.clone() }
+    }
+
     /// The initial surface radius for a scene whose bounding-box diagonal is `diagonal`.
     pub fn initial_radius(&self, diagonal: f64) -> f64 {
         self.radius.unwrap_or(self.radius_fraction * diagonal)
@@ -836,12 +858,25 @@ mod tests {
     }
 
     #[test]
+    fn the_default_integrator_is_combined_unless_media_emit() {
+        let s = RenderSettings::default();
+        assert_eq!(s.integrator, Integrator::Auto);
+        assert_eq!(s.resolved(false).integrator, Integrator::Combined);
+        assert_eq!(s.resolved(true).integrator, Integrator::Hybrid);
+        // A choice made is kept, wherever media emit.
+        for i in Integrator::ALL.iter().copied().filter(|&i| i != Integrator::Auto) {
+            assert_eq!(i.resolve(false), i);
+            assert_eq!(i.resolve(true), i);
+        }
+    }
+
+    #[test]
     fn entries_record_every_set_key_in_file_syntax() {
         let s = RenderSettings { beam_cell_budget: Some(8), ..RenderSettings::default() };
         let e = s.entries();
         let get = |k: &str| e.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
         assert_eq!(get("kernel").as_deref(), Some("\"epanechnikov\""));
-        assert_eq!(get("integrator").as_deref(), Some("\"hybrid\""));
+        assert_eq!(get("integrator").as_deref(), Some("\"auto\""));
         assert_eq!(get("beam_cell_budget").as_deref(), Some("8"));
         assert_eq!(get("time_limit"), None);
         // What the header records reads back as the same settings.

@@ -6,7 +6,8 @@
 #
 # The six scenes at 1/16 of their resolution (the size of tests/references/), 50,000 light paths
 # per iteration, four runs each. The two caustic scenes, which the path tracer cannot render, get
-# hybrid references of 8,000 iterations first. volumetric-caustic is measured without its rows
+# hybrid references of 8,000 iterations first. Everything is the hybrid's (the default when the
+# table was made, 2026-12-03, until 2026-12-07). volumetric-caustic is measured without its rows
 # 0–6, where the tiny light seen directly makes one pixel the whole image's error.
 set -euo pipefail
 HAZE=${HAZE:-target/release/haze}
@@ -17,7 +18,7 @@ size() {
         awk '{w = int($1 / 16 + 0.5); h = int($2 / 16 + 0.5); if (w < 8) w = 8; if (h < 8) h = 8; print w "x" h}'
 }
 for s in glass-caustic volumetric-caustic; do
-    "$HAZE" render "scenes/$s.toml" --reference -n 8000 -p 50000 --seed 1000 \
+    "$HAZE" render "scenes/$s.toml" --reference -n 8000 -p 50000 --seed 1000 --integrator hybrid \
         --resolution "$(size "$s")" -q -o "$OUT/ref-$s.exr"
 done
 for s in cornell-fog spotlight-fog cornell-cloud vdb-cloud glass-caustic volumetric-caustic; do
@@ -26,7 +27,7 @@ for s in cornell-fog spotlight-fog cornell-cloud vdb-cloud glass-caustic volumet
     region=()
     [ "$s" = volumetric-caustic ] && region=(--region 0,7,63,35)
     "$HAZE" converge "scenes/$s.toml" --reference "$ref" --resolution "$(size "$s")" \
-        -p 50000 -n 1000 -t 100000 --runs 4 "${region[@]}" -q -o "$OUT/$s"
+        -p 50000 -n 1000 -t 100000 --runs 4 --integrator hybrid "${region[@]}" -q -o "$OUT/$s"
 done
 # The table: per checkpoint, the measured relative RMSE (squared errors averaged over the runs,
 # standard error from their spread), the estimated one, their ratio and the coverage range.

@@ -501,16 +501,20 @@ pub struct Summary {
 
 /// RMSE slope against time that theory predicts for `settings` on `scene` (module docs).
 pub fn theory_slope(scene: &Scene, settings: &RenderSettings) -> f64 {
-    if settings.integrator == Integrator::Path {
+    let integrator = settings.integrator.resolve(scene.has_emissive_media());
+    if integrator == Integrator::Path {
         return -0.5;
     }
     // MSE exponent of an estimate with kernel dimension k on a schedule of dimension d.
     let exponent = |k: f64, d: f64, a: f64| (1.0 - k * (1.0 - a) / d).min(4.0 * (1.0 - a) / d);
     let mut e = exponent(2.0, 2.0, settings.alpha);
     if scene.has_media() && settings.progression == Progression::Probabilistic {
-        let k = match settings.volume_estimate {
-            VolumeEstimate::Beam => 2.0,
-            VolumeEstimate::Point => 3.0,
+        // The combined integrator reads no volume estimate: it weighs both merges, and the point
+        // merge's share against the beam's shrinks with the radius (∝ σ_t r), so the beam's rate
+        // is its rate.
+        let k = match (integrator, settings.volume_estimate) {
+            (Integrator::Combined, _) | (_, VolumeEstimate::Beam) => 2.0,
+            (_, VolumeEstimate::Point) => 3.0,
         };
         e = e.min(exponent(k, settings.volume_dimension as f64, settings.volume_alpha));
     }
@@ -823,20 +827,15 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
                 })
             })
             .collect(),
-        "integrator" => {
-            [Integrator::Combined, Integrator::Hybrid, Integrator::PhotonMapping, Integrator::Path]
-                .iter()
-                .map(|&i| {
-                    let label = match i {
-                        Integrator::Combined => "combined",
-                        Integrator::Hybrid => "hybrid",
-                        Integrator::PhotonMapping => "photon mapping",
-                        Integrator::Path => "path tracing",
-                    };
-                    with(label.to_string(), &|s| s.integrator = i)
-                })
-                .collect()
-        }
+        "integrator" => [
+            (Integrator::Combined, "combined"),
+            (Integrator::Hybrid, "hybrid"),
+            (Integrator::PhotonMapping, "photon mapping"),
+            (Integrator::Path, "path tracing"),
+        ]
+        .iter()
+        .map(|&(i, label)| with(label.to_string(), &|s| s.integrator = i))
+        .collect(),
         "merges" | "photon-budget" => combined_preset(name, base),
         _ => {
             return Err(format!(

@@ -7,6 +7,7 @@ use haze::progress::Silent;
 use haze::scene::{
     CameraDesc, LightDesc, Material, MaterialId, MediumDesc, SceneBuilder, ShapeDesc,
 };
+use haze::settings::Integrator;
 use haze::{Error, RenderSettings, Scene};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -140,4 +141,40 @@ fn the_readmes_code_built_scene_needs_nothing_of_the_repository() {
     }
     let ci = std::fs::read_to_string(root.join(".ci/run")).unwrap();
     assert!(ci.contains("tests/readme-snippet.sh"), ".ci/run does not build the snippet");
+}
+
+/// The default integrator (`auto`) is the combined integrator, or the hybrid where media emit,
+/// and a render records the one that made it, not `auto`: the image's header and summary name
+/// it. A choice made is kept.
+#[test]
+fn a_render_records_the_integrator_the_default_stood_for() {
+    let scene = |medium: MediumDesc| {
+        let camera = CameraDesc::perspective([0.0, 0.5, 4.0], [0.0, 0.0, 0.0], 35.0);
+        let mut b = SceneBuilder::new(camera.resolution(12, 8));
+        b.material("air", Material::Interface).unwrap();
+        b.material("floor", Material::diffuse(0.6)).unwrap();
+        b.medium("fog", medium).unwrap();
+        b.shape(ShapeDesc::cuboid([1.0, 1.0, 1.0]).material("air").interior("fog")).unwrap();
+        let floor = ShapeDesc::rectangle(8.0, 8.0).material("floor").rotate([-90.0, 0.0, 0.0]);
+        b.shape(floor.translate([0.0, -1.0, 0.0])).unwrap();
+        b.light(LightDesc::point([0.0, 2.0, 0.0], 20.0)).unwrap();
+        b.build().unwrap()
+    };
+    let fog = MediumDesc::homogeneous(0.2, 0.5);
+    let rendered = |scene: &Scene, integrator: Integrator| {
+        let settings = RenderSettings {
+            iterations: Some(1),
+            photons: 500,
+            integrator,
+            ..scene.settings.clone()
+        };
+        let image = haze::render(scene, &settings, &mut Silent, &AtomicBool::new(false)).unwrap();
+        image.info.settings.integrator
+    };
+    let (plain, glowing) = (scene(fog.clone()), scene(fog.emission(1.0)));
+    assert_eq!(plain.settings.integrator, Integrator::Auto);
+    assert_eq!(rendered(&plain, Integrator::Auto), Integrator::Combined);
+    assert_eq!(rendered(&glowing, Integrator::Auto), Integrator::Hybrid);
+    assert_eq!(rendered(&glowing, Integrator::Combined), Integrator::Combined);
+    assert_eq!(rendered(&plain, Integrator::Path), Integrator::Path);
 }

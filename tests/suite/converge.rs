@@ -47,7 +47,8 @@ fn reference_files_round_trip() {
     assert_eq!(r.made_by, Some((Integrator::Path, 9)));
     assert!(r.description.unwrap().contains("path tracer"), "description");
     // A photon-mapping reference's variance layer is not used: its iterations drift as the
-    // radius shrinks, so their spread is not exactly the noise of the mean.
+    // radius shrinks, so their spread is not exactly the noise of the mean. The default
+    // integrator's reference records the integrator that made it (combined), not `auto`.
     let ppm = render(
         &scene,
         &RenderSettings { photons: 2_000, iterations: Some(3), ..Default::default() },
@@ -56,8 +57,8 @@ fn reference_files_round_trip() {
     ppm.write_reference(&ppm_path, 1.0).unwrap();
     let r = Reference::load(&ppm_path).unwrap();
     assert!(r.variance.is_none() && r.variance_layer.is_some());
-    assert_eq!(r.made_by, Some((Integrator::Hybrid, 0)));
-    assert!(r.description.unwrap().contains("hybrid"));
+    assert_eq!(r.made_by, Some((Integrator::Combined, 0)));
+    assert!(r.description.unwrap().contains("combined"));
     // A plain render carries its variance layer too, but no reference attribute.
     let plain = dir.join("plain.exr");
     img.write_exr(&plain).unwrap();
@@ -196,12 +197,18 @@ fn clashing_seeds_and_sizes_are_refused() {
 
 /// The slopes theory gives (../DESIGN.md §3): surface α = 2/3 → −1/3; the beam estimate on the
 /// 3-D schedule with α = 1/2 → −1/3, on the 2-D schedule → −1/4; the point estimate at its
-/// optimum α = 4/7 → −2/7; the path tracer −1/2.
+/// optimum α = 4/7 → −2/7 (the combined integrator, which weighs both, the beam's); the path tracer −1/2.
 #[test]
 fn theory_slopes() {
     let surface = small_cornell();
     let fog = Scene::load(scene_path("cornell-fog.toml")).unwrap();
-    let base = RenderSettings { alpha: 2.0 / 3.0, volume_alpha: 0.5, ..RenderSettings::default() };
+    let hybrid = Integrator::Hybrid;
+    let base = RenderSettings {
+        alpha: 2.0 / 3.0,
+        volume_alpha: 0.5,
+        integrator: hybrid,
+        ..RenderSettings::default()
+    };
     let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
     assert!(close(theory_slope(&surface, &base), -1.0 / 3.0));
     assert!(close(theory_slope(&fog, &base), -1.0 / 3.0));
@@ -213,6 +220,14 @@ fn theory_slopes() {
         ..base.clone()
     };
     assert!(close(theory_slope(&fog, &point), -2.0 / 7.0));
+    // The combined integrator weighs both merges whatever the volume estimate says: the beam's
+    // rate (the point estimate's at α = 1/2 would be −1/4).
+    let combined = RenderSettings {
+        integrator: Integrator::Combined,
+        volume_estimate: VolumeEstimate::Point,
+        ..base.clone()
+    };
+    assert!(close(theory_slope(&fog, &combined), -1.0 / 3.0));
     let path = RenderSettings { integrator: Integrator::Path, ..base };
     assert!(close(theory_slope(&fog, &path), -0.5));
 }

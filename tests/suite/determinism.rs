@@ -45,7 +45,9 @@ fn media_images_are_bit_identical_across_thread_counts() {
     {
         let mut scene = Scene::load(scene_path(name)).unwrap();
         scene.set_resolution(size).unwrap();
-        let beam = scene.settings.clone();
+        // The hybrid's estimates, then the combined integrator's.
+        let beam =
+            Settings { integrator: haze::settings::Integrator::Hybrid, ..scene.settings.clone() };
         let mut thinned = beam.clone();
         thinned.beam_cell_budget = Some(4);
         let mut point = beam.clone();
@@ -82,6 +84,8 @@ fn emitter_pool_images_are_bit_identical_across_thread_counts() {
     let mut scene = Scene::load(scene_path("campfire.toml")).unwrap();
     scene.set_resolution([100, 75]).unwrap();
     assert!(scene.settings.emission_nee_distance.is_some());
+    // The pool is the hybrid's.
+    scene.settings.integrator = haze::settings::Integrator::Hybrid;
     let one = render_with(&scene, 1, 5);
     for threads in [2, 3] {
         assert!(one.pixels == render_with(&scene, threads, 5).pixels, "1 and {threads} threads");
@@ -96,7 +100,9 @@ fn emitter_pool_images_are_bit_identical_across_thread_counts() {
 fn guided_images_are_bit_identical_across_thread_counts() {
     let mut scene = Scene::load(scene_path("vdb-cloud.toml")).unwrap();
     scene.set_resolution([80, 50]).unwrap();
-    let settings = Settings { photons: 30_000, ..scene.settings.clone() };
+    // Guiding is photon mapping's and the hybrid's.
+    let integrator = haze::settings::Integrator::Hybrid;
+    let settings = Settings { photons: 30_000, integrator, ..scene.settings.clone() };
     let usage = haze::photon_usage(&scene, &settings, 1, &AtomicBool::new(false)).unwrap().unwrap();
     assert!(usage.guided, "vdb-cloud should be guided: {usage:?}");
     let one = render_settings(&scene, &settings, 1, 5);

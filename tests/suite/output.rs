@@ -41,8 +41,15 @@ fn exr_round_trips_pixels_and_metadata() {
         other => panic!("{k}: {other:?}"),
     };
     assert_eq!(text("haze:iterations"), "2");
-    assert_eq!(text("haze:lightPaths"), "20000");
-    // Every setting, in the scene file's syntax: the header reads back as the settings.
+    // The light paths traced (the combined integrator's pilot may choose fewer than `photons`).
+    assert_eq!(text("haze:lightPaths"), image.info.light_paths.to_string());
+    assert!(image.info.light_paths <= 20_000);
+    // Every setting, in the scene file's syntax: the header reads back as the settings, with
+    // the integrator the default (`auto`) stood for in this scene.
+    assert_eq!(settings.integrator, haze::settings::Integrator::Auto);
+    assert_eq!(text("haze:render.integrator"), "\"combined\"");
+    let settings =
+        haze::RenderSettings { integrator: haze::settings::Integrator::Combined, ..settings };
     assert_eq!(text("haze:render.seed"), settings.seed.to_string());
     assert_eq!(text("haze:render.kernel"), format!("\"{}\"", settings.kernel));
     let table: String = haze::RenderOptions::KEYS
@@ -170,7 +177,11 @@ fn technique_layers_sum_to_the_image() {
         }
     }
     let scene = Scene::load(scene_path("cornell-box.toml")).unwrap();
-    let hybrid = haze::RenderSettings { techniques: true, ..scene.settings.clone() };
+    let hybrid = haze::RenderSettings {
+        techniques: true,
+        integrator: Integrator::Hybrid,
+        ..scene.settings.clone()
+    };
     let refused = haze::render(&scene, &hybrid, &mut Silent, &AtomicBool::new(false));
     assert!(refused.unwrap_err().to_string().contains("techniques"));
     let combined = haze::RenderSettings {

@@ -5,7 +5,7 @@
 use crate::common::{SIGNIFICANCE, mean_and_se, scene_path};
 use haze::progress::Silent;
 use haze::progress::Status;
-use haze::settings::{PhotonGuiding, PhotonSplitting, RenderSettings};
+use haze::settings::{Integrator, PhotonGuiding, PhotonSplitting, RenderSettings};
 use haze::{Image, Scene};
 use statrs::distribution::{ContinuousCDF, StudentsT};
 use std::sync::atomic::AtomicBool;
@@ -36,10 +36,12 @@ fn regions(img: &Image, n: usize) -> Vec<f64> {
 fn photon_guiding_changes_the_noise_not_the_image() {
     let mut scene = Scene::load(scene_path("vdb-cloud.toml")).unwrap();
     scene.set_resolution([48, 30]).unwrap();
+    // Guiding is photon mapping's and the hybrid's.
     let base = RenderSettings {
         iterations: Some(3),
         photons: 8000,
         volume_radius: Some(0.08),
+        integrator: Integrator::Hybrid,
         ..scene.settings.clone()
     };
     let stop = AtomicBool::new(false);

@@ -89,9 +89,7 @@ fn furnace_holds_at_extreme_thickness_and_anisotropy() {
             let xs = run.means(&scene, 0..seeds);
             let bias = match integrator {
                 Integrator::Path => 0.0,
-                Integrator::PhotonMapping | Integrator::Hybrid | Integrator::Combined => {
-                    furnace_bias(le as f64, sigma_s as f64, r)
-                }
+                _ => furnace_bias(le as f64, sigma_s as f64, r),
             };
             assert_agrees(
                 &format!("furnace σ_s = {sigma_s}, g = {g}, {estimate:?}, {integrator:?}"),

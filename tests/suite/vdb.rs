@@ -63,6 +63,8 @@ fn twin_render(
         volume_estimate: estimate,
         max_bounces: 32,
         seed,
+        // The volume estimate named is the hybrid's (the combined integrator weighs both).
+        integrator: haze::settings::Integrator::Hybrid,
         ..haze::settings::RenderSettings::default()
     };
     let stop = std::sync::atomic::AtomicBool::new(false);

@@ -277,7 +277,8 @@ fn summary(
         Integrator::PhotonMapping | Integrator::Hybrid => {
             format!("{} light paths, final radius {:.5}", i.light_paths, i.radius)
         }
-        Integrator::Combined => {
+        // A render records the integrator `auto` stood for (never `Auto` itself).
+        Integrator::Combined | Integrator::Auto => {
             // The pilot may have chosen fewer light paths per iteration than `photons`.
             let per = i.light_paths.checked_div(i.iterations).unwrap_or(0);
             let chosen = if per != i.settings.photons && per > 0 {

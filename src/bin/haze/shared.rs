@@ -75,7 +75,8 @@ impl Overrides {
 }
 
 /// The scene at `path`, loaded on `pool`'s threads, and its settings under the command line's,
-/// with 8 iterations unless it says otherwise: what every kind of scene benchmark renders.
+/// with 8 iterations unless it says otherwise and the integrator `auto` stands for in it: what
+/// every kind of scene benchmark renders.
 pub(crate) fn bench_scene(
     pool: &rayon::ThreadPool,
     path: &Path,
@@ -84,7 +85,7 @@ pub(crate) fn bench_scene(
     let scene = pool.install(|| overrides.load_scene(path))?;
     let mut o = overrides.clone();
     o.settings.iterations = o.settings.iterations.or(Some(8));
-    let settings = o.settings(&scene.settings)?;
+    let settings = o.settings(&scene.settings)?.resolved(scene.has_emissive_media());
     Ok((scene, settings))
 }
 
