@@ -119,7 +119,9 @@ impl Partial {
 
     /// Checks that this is a piece of a render of the scene with `fingerprint` at `size` with
     /// `settings` (all but `iterations` and `time_limit` must agree), as a resume needs. The
-    /// error names the first difference, this partial's value first.
+    /// error names the first difference, this partial's value first. A partial records the
+    /// integrator that rendered it, never `auto`: resolve `settings` first
+    /// ([`crate::RenderSettings::resolved`]), as [`crate::render_partial`] does.
     pub fn check_matches(
         &self,
         fingerprint: &[u8; 32],

@@ -31,7 +31,7 @@
 //! volume_alpha = 0.5        # α of the volume schedule r³(i+1)/r³(i) = (i+α)/(i+1)
 //! volume_radius_fraction = 0.005  # initial volume radius (or `volume_radius`, absolute)
 //! volume_dimension = 3      # dimension d of the volume schedule (3; 2 for experiments)
-//! integrator = "hybrid"     # "hybrid" (light sampling + photons), "photons", "path" or "combined"
+//! integrator = "auto"       # "combined" (or "hybrid" where media emit), "combined", "hybrid", "photons" or "path"
 //! progression = "probabilistic"  # or "original": Hachisuka 2008 per-pixel statistics (surfaces only)
 //! beam_cell_budget = 64     # thin volume photons in cells denser than this (unbiased; off if absent)
 //! emission_nee_distance = 2  # emitting media's light on surfaces from ≥ this far by next-event estimation (hybrid; off if absent)

@@ -784,9 +784,18 @@ pub fn preset(name: &str, base: &RenderSettings) -> std::result::Result<Vec<Seri
         Series { label, settings: s }
     };
     Ok(match name {
+        // The volume estimate is the hybrid's and photon mapping's (the combined integrator
+        // weighs both): with the default or the combined integrator, the hybrid's.
         "estimate" => [VolumeEstimate::Beam, VolumeEstimate::Point]
             .iter()
-            .map(|&e| with(e.name().to_string(), &|s| s.volume_estimate = e))
+            .map(|&e| {
+                with(e.name().to_string(), &|s| {
+                    s.volume_estimate = e;
+                    if matches!(s.integrator, Integrator::Auto | Integrator::Combined) {
+                        s.integrator = Integrator::Hybrid;
+                    }
+                })
+            })
             .collect(),
         "alpha" => [0.5, 2.0 / 3.0, 0.9]
             .iter()
@@ -907,6 +916,13 @@ mod tests {
         let series = preset(name, &RenderSettings::default()).unwrap();
         series.iter().for_each(|s| s.settings.validate().unwrap());
         series.iter().map(|s| (s.settings.integrator, field(&s.settings))).collect()
+    }
+
+    #[test]
+    fn the_estimate_comparison_is_the_hybrids_under_the_default() {
+        // The combined integrator reads no volume estimate: two identical series otherwise.
+        let want = [VolumeEstimate::Beam, VolumeEstimate::Point].map(|e| (Integrator::Hybrid, e));
+        assert_eq!(series_of("estimate", |s| s.volume_estimate), want);
     }
 
     #[test]

@@ -25,14 +25,14 @@ done
 # The two caustic scenes, which the path tracer cannot render: the hybrid, 8,000 iterations of
 # 50,000 light paths (their bias layers enter the test's allowance).
 for s in glass-caustic volumetric-caustic; do
-    "$HAZE" render "scenes/$s.toml" --reference -n 8000 -p 50000 --seed 1000 \
+    "$HAZE" render "scenes/$s.toml" --reference -n 8000 -p 50000 --seed 1000 --integrator hybrid \
         --resolution "$(size "$s")" -q -o "tests/references/$s.exr"
     rm -f "tests/references/$s.png"
 done
 # dense-fog, whose path-traced pixels are dominated by rare paths: the hybrid at a fixed volume
 # radius 10x the scene's (the test's renders use the same radii), 8,192 iterations of the
 # scene's 2,000 light paths (about 25 minutes on 2 cores).
-"$HAZE" render scenes/dense-fog.toml --reference -n 8192 --seed 1000 --alpha 0.9999 \
+"$HAZE" render scenes/dense-fog.toml --reference -n 8192 --seed 1000 --alpha 0.9999 --integrator hybrid \
     --volume-alpha 0.9999 --volume-radius-fraction 0.1 --resolution "$(size dense-fog)" -q \
     -o tests/references/dense-fog.exr
 rm -f tests/references/dense-fog.png

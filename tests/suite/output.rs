@@ -41,9 +41,11 @@ fn exr_round_trips_pixels_and_metadata() {
         other => panic!("{k}: {other:?}"),
     };
     assert_eq!(text("haze:iterations"), "2");
-    // The light paths traced (the combined integrator's pilot may choose fewer than `photons`).
+    // The light paths traced: the combined integrator's pilot may choose fewer than `photons`,
+    // the same count in each iteration.
     assert_eq!(text("haze:lightPaths"), image.info.light_paths.to_string());
-    assert!(image.info.light_paths <= 20_000);
+    assert!(image.info.light_paths > 0 && image.info.light_paths <= 20_000);
+    assert_eq!(image.info.light_paths % 2, 0);
     // Every setting, in the scene file's syntax: the header reads back as the settings, with
     // the integrator the default (`auto`) stood for in this scene.
     assert_eq!(settings.integrator, haze::settings::Integrator::Auto);

@@ -107,6 +107,9 @@ fn photon_splitting_changes_the_noise_not_the_image() {
         photons: 100,
         volume_radius: Some(0.08),
         max_bounces: 2000,
+        // The hybrid's light paths, at the count given (the combined integrator's pilot would
+        // choose a count of its own for each run).
+        integrator: Integrator::Hybrid,
         ..scene.settings.clone()
     };
     let stop = AtomicBool::new(false);

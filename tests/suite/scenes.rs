@@ -1,6 +1,6 @@
 //! Every bundled scene loads and renders without a NaN or infinite pixel, with its own integrator
-//! (the default, the combined integrator, unless it names one) and with the hybrid's two volume
-//! estimators (at reduced resolution and photon counts).
+//! (the default, `auto`: the combined integrator, or the hybrid where media emit, unless it names
+//! one) and with the hybrid's two volume estimators (at reduced resolution and photon counts).
 
 use crate::common::scene_path;
 use haze::Scene;

@@ -386,6 +386,9 @@ fn photon_memory_is_bounded_per_iteration() {
             iterations: Some(1),
             photons: paths,
             max_bounces: bounces,
+            // Every light path asked for is traced (the combined integrator's pilot may trace
+            // fewer, and splits in dense fog).
+            integrator: haze::settings::Integrator::Hybrid,
             ..scene.settings.clone()
         };
         let mut stored = 0u64;

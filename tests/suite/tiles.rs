@@ -157,7 +157,7 @@ fn a_target_error_stops_the_render_where_it_is_first_reached() {
     assert_eq!(haze::settings::parse_fraction_or_percent("2%"), Ok(0.02));
 }
 
-/// `target_region` measures the target over its pixels only: a hybrid render of cornell-box
+/// `target_region` measures the target over its pixels only: a render of cornell-box
 /// (16 × 16) with a target over the middle of the lower half (floor and boxes) stops where the
 /// error there first reaches the target (checked as above: one iteration fewer was above it),
 /// and the whole image's estimate then differs; a region outside the image is refused by name.
