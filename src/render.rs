@@ -6,6 +6,7 @@
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::integrator::Method;
+use crate::integrator::frame::Stopwatch;
 pub use crate::integrator::ppm::PhotonUsage;
 use crate::output::{Image, RenderInfo};
 use crate::partial::Partial;
@@ -157,9 +158,9 @@ fn render_resolved(
             let Some(mut times) = method.iterate(scene, i, &halt, &nonfinite, &mut frame) else {
                 break;
             };
-            let clock = Instant::now();
+            let clock = Stopwatch::start();
             method.accumulate(&mut film, &frame);
-            times.film = clock.elapsed().as_secs_f64();
+            (times.film, times.processor.film) = clock.lap();
             iteration = i;
             let stored = method.photons_stored();
             progress.iteration(&Status {

@@ -23,7 +23,7 @@ pub(crate) mod budget;
 mod eye;
 use eye::Context;
 
-use super::frame::{Frame, StepTimes};
+use super::frame::{Frame, StepTimes, Stopwatch};
 use super::walk::{EyePath, EyeVisitor, Next, environment_seen, roulette, walk_eye};
 use crate::accel::Hit;
 use crate::estimate::Estimate;
@@ -140,13 +140,13 @@ impl Combined {
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
         if self.budget.is_none() {
-            let clock = Instant::now();
+            let clock = Stopwatch::start();
             self.budget(scene, stop)?;
-            times.pilot = super::ppm::lap(clock);
+            (times.pilot, times.processor.pilot) = clock.lap();
         }
         let (seed, paths) = (self.plan.seed, self.paths());
         let kernels = self.photons_at(scene, seed, i, paths, stop, &mut times)?;
-        let clock = Instant::now();
+        let clock = Stopwatch::start();
         let mut layers = std::mem::take(&mut self.layers);
         let ctx = self.context(scene, seed, i, paths, kernels);
         let done = camera_pass(
@@ -161,7 +161,7 @@ impl Combined {
         if !done {
             return None;
         }
-        times.camera = super::ppm::lap(clock);
+        (times.camera, times.processor.camera) = clock.lap();
         Some(times)
     }
 
@@ -287,7 +287,7 @@ impl Combined {
         if !self.point_merges() {
             kernels.point = 0.0;
         }
-        let clock = Instant::now();
+        let clock = Stopwatch::start();
         let pass = PhotonPass {
             seed,
             iteration: i,
@@ -313,13 +313,13 @@ impl Combined {
         {
             return None;
         }
-        times.photon_trace = super::ppm::lap(clock);
-        let clock = Instant::now();
+        (times.photon_trace, times.processor.photon_trace) = clock.lap();
+        let clock = Stopwatch::start();
         self.surface_map.build(&self.photons.surface, radii.surface as f32);
-        times.surface_map = super::ppm::lap(clock);
-        let clock = Instant::now();
+        (times.surface_map, times.processor.surface_map) = clock.lap();
+        let clock = Stopwatch::start();
         self.build_volume_maps(scene, i, radii.volume as f32);
-        times.volume_map = super::ppm::lap(clock);
+        (times.volume_map, times.processor.volume_map) = clock.lap();
         Some(kernels)
     }
 

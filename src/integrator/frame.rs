@@ -5,6 +5,7 @@ use crate::estimate::Estimate;
 use crate::math::Rgb;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
 
 /// One iteration's image and the kernel bias of its photon estimates (zero for the path tracer),
 /// row-major, top row first.
@@ -41,6 +42,63 @@ pub struct StepTimes {
     /// With the `profile` feature, the part of `camera` spent in volume estimates (thread time
     /// divided by the thread count); `None` without it.
     pub volume_estimates: Option<f64>,
+    /// The processor time of each step.
+    pub processor: ProcessorTimes,
+}
+
+/// Processor seconds each step took: the time the process's threads ran, all together, so that
+/// a step that kept N threads busy shows about N times its wall-clock seconds. Against the wall
+/// clock it tells threads that wait (processor time below N × wall) from threads that work
+/// slower side by side (more processor time than on one thread). Zero where the platform has no
+/// process clock (not Unix).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProcessorTimes {
+    /// The pilot ([`StepTimes::pilot`]).
+    pub pilot: f64,
+    /// Tracing light paths.
+    pub photon_trace: f64,
+    /// Building the surface photon map.
+    pub surface_map: f64,
+    /// Building the volume photon map.
+    pub volume_map: f64,
+    /// The camera pass.
+    pub camera: f64,
+    /// Adding the iteration's image to the film.
+    pub film: f64,
+}
+
+/// Seconds of processor time the process has used so far, all its threads together (0 where
+/// the platform has no process clock).
+pub fn processor_seconds() -> f64 {
+    #[cfg(unix)]
+    {
+        let t = rustix::time::clock_gettime(rustix::time::ClockId::ProcessCPUTime);
+        t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+    }
+    #[cfg(not(unix))]
+    {
+        0.0
+    }
+}
+
+/// Wall-clock and processor time since it was started.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Stopwatch {
+    wall: Instant,
+    processor: f64,
+}
+
+impl Stopwatch {
+    /// Starts now.
+    pub(crate) fn start() -> Self {
+        Stopwatch { wall: Instant::now(), processor: processor_seconds() }
+    }
+
+    /// Wall-clock seconds and processor seconds since the start.
+    pub(crate) fn lap(&self) -> (f64, f64) {
+        let wall = self.wall.elapsed().as_secs_f64();
+        (wall, (processor_seconds() - self.processor).max(0.0))
+    }
 }
 
 impl StepTimes {
@@ -104,4 +162,25 @@ pub(crate) fn render_rows_with<T: Send + Default>(
         }
     });
     !stop.load(Ordering::Relaxed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A thread that works for 30 ms of wall-clock time uses processor time the process clock
+    /// sees (other tests' threads can only add to it).
+    #[cfg(unix)]
+    #[test]
+    fn the_processor_clock_counts_work() {
+        let clock = Stopwatch::start();
+        let mut x = 1u64;
+        while clock.lap().0 < 0.03 {
+            for _ in 0..10_000 {
+                x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+            }
+        }
+        let (wall, processor) = clock.lap();
+        assert!(wall >= 0.03 && processor > 0.0, "wall {wall} s, processor {processor} s");
+    }
 }

@@ -19,8 +19,8 @@
 //! defined for surface hit points only.
 
 use super::camera::{CameraPass, Maps, trace_eye};
-use super::frame::StepTimes;
-use super::ppm::{PhotonMapper, lap};
+use super::frame::{StepTimes, Stopwatch};
+use super::ppm::PhotonMapper;
 use crate::estimate::Estimate;
 use crate::estimate::surface::NORMAL_COS;
 use crate::math::Rgb;
@@ -31,7 +31,6 @@ use crate::scene::Scene;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::time::Instant;
 
 /// The original PPM: the photon mapper's photon pass and surface map, and per-pixel statistics.
 pub(crate) struct OriginalPpm {
@@ -85,15 +84,15 @@ impl OriginalPpm {
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
         let r = self.stats.rms_radius();
-        let clock = Instant::now();
+        let clock = Stopwatch::start();
         if !self.mapper.trace(scene, i, stop) {
             return None;
         }
-        times.photon_trace = lap(clock);
-        let clock = Instant::now();
+        (times.photon_trace, times.processor.photon_trace) = clock.lap();
+        let clock = Stopwatch::start();
         self.mapper.build_surface_map(self.stats.max_radius());
-        times.surface_map = lap(clock);
-        let clock = Instant::now();
+        (times.surface_map, times.processor.surface_map) = clock.lap();
+        let clock = Stopwatch::start();
         let pass = self.mapper.camera_pass(i);
         self.next.pixels.copy_from_slice(&self.stats.pixels);
         let paths = i * self.mapper.paths();
@@ -103,7 +102,7 @@ impl OriginalPpm {
         }
         std::mem::swap(&mut self.stats, &mut self.next);
         self.radius = r;
-        times.camera = lap(clock);
+        (times.camera, times.processor.camera) = clock.lap();
         Some(times)
     }
 }

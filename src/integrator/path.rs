@@ -19,7 +19,7 @@
 //! known weakness photon mapping is for.
 
 use super::direct::{emission_weight, environment_weight, next_event};
-use super::frame::StepTimes;
+use super::frame::{StepTimes, Stopwatch};
 use super::single::single_scattering;
 use super::walk::{EyePath, EyeVisitor, Next, roulette, walk_eye};
 use crate::accel::Hit;
@@ -31,7 +31,6 @@ use crate::scene::Scene;
 use crate::scene::light::{LightSampler, Receiver};
 use crate::scene::material::{Material, Transport};
 use std::sync::atomic::{AtomicBool, AtomicU64};
-use std::time::Instant;
 
 /// The path tracer: its plan and the light sampler, kept between iterations.
 pub(crate) struct PathTracer {
@@ -58,13 +57,15 @@ impl PathTracer {
         nonfinite: &AtomicU64,
         frame: &mut super::frame::Frame,
     ) -> Option<StepTimes> {
-        let clock = Instant::now();
+        let clock = Stopwatch::start();
         let pass =
             PathPass { seed: self.plan.seed, iteration: i, max_bounces: self.plan.max_bounces };
         if !render_pass(scene, &self.lights, &pass, stop, nonfinite, frame) {
             return None;
         }
-        Some(StepTimes { camera: super::ppm::lap(clock), ..StepTimes::default() })
+        let mut times = StepTimes::default();
+        (times.camera, times.processor.camera) = clock.lap();
+        Some(times)
     }
 }
 

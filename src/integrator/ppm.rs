@@ -5,7 +5,7 @@
 //! iteration (memory stays constant), and the camera pass renders one jittered eye path per pixel.
 
 use super::camera::{CameraPass, Maps, render_pass};
-use super::frame::StepTimes;
+use super::frame::{StepTimes, Stopwatch};
 use crate::estimate::surface::Gather;
 use crate::photon::beam::{BeamMap, Thinning};
 use crate::photon::guide::{EmissionGuide, LightUse, PilotPath};
@@ -20,7 +20,6 @@ use crate::scene::light::LightSampler;
 use crate::scene::light::media::EmitterPool;
 use crate::settings::VolumeEstimate;
 use std::sync::atomic::{AtomicBool, AtomicU64};
-use std::time::Instant;
 
 /// A photon mapper's plan and buffers, kept between iterations.
 pub(crate) struct PhotonMapper {
@@ -88,29 +87,29 @@ impl PhotonMapper {
         frame: &mut super::frame::Frame,
     ) -> Option<StepTimes> {
         let mut times = StepTimes::default();
-        let clock = Instant::now();
+        let clock = Stopwatch::start();
         if !self.learn_guide(scene, stop) || !self.learn_importance(scene, stop) {
             return None;
         }
-        times.pilot = lap(clock);
-        let clock = Instant::now();
+        (times.pilot, times.processor.pilot) = clock.lap();
+        let clock = Stopwatch::start();
         if !self.trace(scene, i, stop) {
             return None;
         }
-        times.photon_trace = lap(clock);
-        let clock = Instant::now();
+        (times.photon_trace, times.processor.photon_trace) = clock.lap();
+        let clock = Stopwatch::start();
         let radii = self.plan.radii(i);
         self.build_surface_map(radii.surface);
-        times.surface_map = lap(clock);
-        let clock = Instant::now();
+        (times.surface_map, times.processor.surface_map) = clock.lap();
+        let clock = Stopwatch::start();
         self.build_volume_map(scene, i, radii.volume);
-        times.volume_map = lap(clock);
-        let clock = Instant::now();
+        (times.volume_map, times.processor.volume_map) = clock.lap();
+        let clock = Stopwatch::start();
         let pass = self.camera_pass(i);
         if !render_pass(scene, &self.maps(), &pass, stop, nonfinite, frame) {
             return None;
         }
-        times.camera = lap(clock);
+        (times.camera, times.processor.camera) = clock.lap();
         times.volume_estimates = super::camera::take_volume_times();
         Some(times)
     }
@@ -388,9 +387,4 @@ pub struct PhotonUsage {
     /// With guiding, per light: the pilot's light paths, those visible, and the cells of its
     /// guiding table.
     pub pilot: Vec<(u64, u64, usize)>,
-}
-
-/// Seconds since `clock`.
-pub(crate) fn lap(clock: Instant) -> f64 {
-    clock.elapsed().as_secs_f64()
 }

@@ -383,7 +383,8 @@ fn bench_rays_reports_every_set_and_query() {
 }
 
 /// `haze bench --scaling` times every phase of whole runs on 1 and 2 threads, with a serial
-/// fraction and predicted efficiencies for each, and refuses a single thread or no rounds.
+/// fraction and predicted efficiencies for each and its split by the processor clock into waiting
+/// and more work, and refuses a single thread or no rounds.
 #[test]
 fn bench_scaling_reports_every_phase_on_both_thread_counts() {
     let scene = scene_path("cornell-fog.toml");
@@ -405,7 +406,20 @@ fn bench_scaling_reports_every_phase_on_both_thread_counts() {
         assert!(time(cells[2]) >= 0.0 && time(cells[3]) >= 0.0, "{row}");
         assert!(cells[4].ends_with('×') && cells[5].ends_with('%'), "{row}");
     }
-    assert!(text.lines().any(|l| l.starts_with("| whole run |")), "{text}");
+    // The processor clock's split of the whole run: the 2-thread run's processors busy between
+    // 0 and 100 % (a little above where the clocks' readings straddle a tick), and
+    // 1 + s = (1 + more work)(1 + waiting) for N = 2, to the rounding of the printed per cents.
+    let row = text.lines().find(|l| l.starts_with("| whole run |")).expect("no whole run row");
+    let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+    let percent = |c: &str| {
+        let v = c.strip_suffix(" %").unwrap_or_else(|| panic!("{c} in {row}"));
+        v.parse::<f64>().unwrap_or_else(|_| panic!("{c} in {row}")) / 100.0
+    };
+    let (serial, busy, waiting, more) =
+        (percent(cells[5]), percent(cells[9]), percent(cells[10]), percent(cells[11]));
+    assert!(busy > 0.0 && busy <= 1.02, "{row}");
+    assert!(((1.0 + more) * (1.0 + waiting) - (1.0 + serial)).abs() < 0.003, "{row}");
+    assert!((1.0 / busy - 1.0 - waiting).abs() < 0.02, "{row}");
     let (ok, err) = haze(&["bench", scene.to_str().unwrap(), "--scaling", "-j", "1"]);
     assert!(!ok && err.contains("at least 2 threads"), "{err}");
     let (ok, err) =

@@ -10,7 +10,7 @@
 
 use crate::shared::{Overrides, bench_scene, thread_pool};
 use anyhow::{Result, bail};
-use haze::progress::Status;
+use haze::progress::{Status, processor_seconds};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -37,35 +37,50 @@ const PHASES: [&str; 10] = [
 /// Seconds of each phase of one whole run, in the order of [`PHASES`].
 type Times = [f64; PHASES.len()];
 
+/// One whole run's wall-clock and processor seconds per phase.
+#[derive(Clone, Copy)]
+struct Run {
+    wall: Times,
+    processor: Times,
+}
+
 /// One whole run on `threads` threads: load, render, write (to a temporary file, removed).
-fn run_once(path: &Path, overrides: &Overrides, threads: usize) -> Result<Times> {
+fn run_once(path: &Path, overrides: &Overrides, threads: usize) -> Result<Run> {
     let pool = thread_pool(Some(threads))?;
     let whole = Instant::now();
+    let whole_cpu = processor_seconds();
     let (scene, settings) = bench_scene(&pool, path, overrides)?;
-    let load = whole.elapsed().as_secs_f64();
-    let mut steps = [0.0f64; 6];
+    let load = [whole.elapsed().as_secs_f64(), processor_seconds() - whole_cpu];
+    let (mut steps, mut steps_cpu) = ([0.0f64; 6], [0.0f64; 6]);
     let mut on_iteration = |s: &Status| {
-        let t = &s.times;
+        let (t, p) = (&s.times, &s.times.processor);
         let each = [t.pilot, t.photon_trace, t.surface_map, t.volume_map, t.camera, t.film];
+        let each_cpu = [p.pilot, p.photon_trace, p.surface_map, p.volume_map, p.camera, p.film];
         for (sum, x) in steps.iter_mut().zip(each) {
+            *sum += x;
+        }
+        for (sum, x) in steps_cpu.iter_mut().zip(each_cpu) {
             *sum += x;
         }
     };
     let stop = AtomicBool::new(false);
-    let clock = Instant::now();
+    let (clock, cpu) = (Instant::now(), processor_seconds());
     let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, &stop))?;
-    let render = clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
+    let render = [clock.elapsed().as_secs_f64(), processor_seconds() - cpu];
+    let (clock, cpu) = (Instant::now(), processor_seconds());
     let out = std::env::temp_dir().join(format!("haze-scaling-{}.exr", std::process::id()));
     let written = pool.install(|| image.write(&out, 1.0))?;
     for f in written {
         let _ = std::fs::remove_file(f);
     }
-    let write = clock.elapsed().as_secs_f64();
-    let setup = (render - steps.iter().sum::<f64>()).max(0.0);
-    let [pilot, trace, surface, volume, camera, film] = steps;
-    let whole = whole.elapsed().as_secs_f64();
-    Ok([load, setup, pilot, trace, surface, volume, camera, film, write, whole])
+    let write = [clock.elapsed().as_secs_f64(), processor_seconds() - cpu];
+    let whole = [whole.elapsed().as_secs_f64(), processor_seconds() - whole_cpu];
+    let phases = |k: usize, steps: [f64; 6]| -> Times {
+        let setup = (render[k] - steps.iter().sum::<f64>()).max(0.0);
+        let [pilot, trace, surface, volume, camera, film] = steps;
+        [load[k], setup, pilot, trace, surface, volume, camera, film, write[k], whole[k]]
+    };
+    Ok(Run { wall: phases(0, steps), processor: phases(1, steps_cpu) })
 }
 
 /// Amdahl's serial fraction from one phase's times on 1 and `n` threads.
@@ -76,6 +91,55 @@ fn serial_fraction(t1: f64, tn: f64, n: usize) -> f64 {
 /// Efficiency on `m` threads of a phase with serial fraction `s` (clamped to 0..=1).
 fn efficiency(s: f64, m: usize) -> f64 {
     1.0 / (1.0 + s.clamp(0.0, 1.0) * (m as f64 - 1.0))
+}
+
+/// One phase's times on 1 and `n` threads, wall clock and processor, and what they say.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Phase {
+    /// Amdahl's serial fraction from the wall-clock times.
+    serial: f64,
+    /// The part of `serial` that is waiting: the serial fraction the `n`-thread run's idle
+    /// processor time stands for, had the work been that of one thread. Threads that wait for a
+    /// serial part or for another's last work item leave their processors idle.
+    waiting: f64,
+    /// The part of `serial` that is work grown on `n` threads (contention for memory or shared
+    /// cache lines, work repeated per thread): the serial fraction the growth of processor time
+    /// stands for, had no thread waited.
+    more_work: f64,
+    /// The `n`-thread run's processor time over `n` × its wall-clock time: 1 where every thread
+    /// was busy throughout.
+    busy: f64,
+}
+
+impl Phase {
+    /// From wall-clock `t1`, `tn` and processor `p1`, `pn` seconds on 1 and `n` threads;
+    /// `None` where a processor time is zero (no process clock, or a phase too short to see).
+    /// The fractions satisfy 1 + (n − 1)·serial = (1 + (n − 1)·more_work)·(1 + (n − 1)·waiting):
+    /// for small fractions, serial ≈ waiting + more_work. `more_work` counts processor time
+    /// against the one-thread run's wall-clock time, so a one-thread run that left its processor
+    /// idle (reading a file) lowers it.
+    fn new(t1: f64, tn: f64, p1: f64, pn: f64, n: usize) -> Option<Phase> {
+        if p1 <= 0.0 || pn <= 0.0 || tn <= 0.0 || t1 <= 0.0 {
+            return None;
+        }
+        let m = n as f64 - 1.0;
+        let busy = pn / (n as f64 * tn);
+        Some(Phase {
+            serial: serial_fraction(t1, tn, n),
+            waiting: (1.0 / busy - 1.0) / m,
+            more_work: (pn / t1 - 1.0) / m,
+            busy,
+        })
+    }
+}
+
+/// Seconds the host took from this machine's processors so far (`steal` in /proc/stat), where
+/// the system says.
+fn stolen_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/stat").ok()?;
+    let cpu = stat.lines().next()?.strip_prefix("cpu ")?;
+    let steal: f64 = cpu.split_whitespace().nth(7)?.parse().ok()?;
+    Some(steal / 100.0) // USER_HZ, 100 on every Linux that haze runs on
 }
 
 /// Prints the scaling table of `path`.
@@ -91,16 +155,47 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
     if !(1..=100).contains(&rounds) {
         bail!("--rounds must lie in 1..=100");
     }
-    let (mut one, mut many) = ([f64::INFINITY; PHASES.len()], [f64::INFINITY; PHASES.len()]);
+    // Each phase's shortest wall-clock time over the rounds, with that run's processor time.
+    let empty = Run { wall: [f64::INFINITY; PHASES.len()], processor: [0.0; PHASES.len()] };
+    let (mut one, mut many) = (empty, empty);
+    let mut stolen = 0.0;
     for round in 1..=rounds {
         for (threads, best) in [(1, &mut one), (n, &mut many)] {
             eprintln!("round {round}/{rounds}: {threads} thread(s)");
+            let before = stolen_seconds();
             let t = run_once(path, overrides, threads)?;
-            for (b, x) in best.iter_mut().zip(t) {
-                *b = b.min(x);
+            if let (Some(a), Some(b)) = (before, stolen_seconds()) {
+                stolen += b - a;
+            }
+            for i in 0..PHASES.len() {
+                if t.wall[i] < best.wall[i] {
+                    (best.wall[i], best.processor[i]) = (t.wall[i], t.processor[i]);
+                }
             }
         }
     }
+    print_table(path, n, rounds, &one, &many);
+    println!();
+    println!(
+        "serial fraction s = (N·T_N/T_1 − 1)/(N − 1), efficiency at M threads 1/(1 + s(M − 1)); \
+         \"its serial time / run\": s·T_1 of the phase over the whole run's T_1 (they add up to \
+         about the whole run's serial fraction). Measured on few threads, s also counts waiting \
+         and contention, not only serial code; the processor clock tells them apart: \"busy\" is \
+         the N-thread run's processor time over N × its wall-clock time, \"waiting\" the serial \
+         fraction its idle processors stand for, \"more work\" the one its processor time grown \
+         over the 1-thread run's stands for (contention, work repeated per thread)."
+    );
+    if stolen > 0.0 {
+        println!(
+            "The host took {stolen:.2} s of processor time from this machine during these runs \
+             (steal in /proc/stat): wall-clock times and \"waiting\" include it."
+        );
+    }
+    Ok(())
+}
+
+/// The table of [`run`]: one row per phase.
+fn print_table(path: &Path, n: usize, rounds: usize, one: &Run, many: &Run) {
     println!("scene: {}", path.display());
     println!(
         "whole runs on 1 and {n} threads, shortest of {rounds} rounds per phase; {} cores here",
@@ -108,14 +203,14 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
     );
     println!();
     println!(
-        "| phase | 1 thread (s) | {n} threads (s) | speed-up | serial fraction | its serial time / run | efficiency at 16 | at 64 | |"
+        "| phase | 1 thread (s) | {n} threads (s) | speed-up | serial fraction | its serial time / run | efficiency at 16 | at 64 | busy | waiting | more work | |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
-    let whole = one[PHASES.len() - 1];
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let whole = one.wall[PHASES.len() - 1];
     for (i, name) in PHASES.iter().enumerate() {
-        let (t1, tn) = (one[i], many[i]);
+        let (t1, tn) = (one.wall[i], many.wall[i]);
         if t1 <= 0.0 {
-            println!("| {name} | — | — | | | | | | |");
+            println!("| {name} | — | — | | | | | | | | | |");
             continue;
         }
         let s = serial_fraction(t1, tn, n);
@@ -125,8 +220,17 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
         } else {
             ""
         };
+        let split = match Phase::new(t1, tn, one.processor[i], many.processor[i], n) {
+            Some(p) => format!(
+                "{:.0} % | {:.1} % | {:.1} %",
+                100.0 * p.busy,
+                100.0 * p.waiting,
+                100.0 * p.more_work
+            ),
+            None => "— | — | —".to_string(),
+        };
         println!(
-            "| {name} | {t1:.4} | {tn:.4} | {:.2}× | {:.1} % | {:.2} % | {:.0} % | {:.0} % | {flag} |",
+            "| {name} | {t1:.4} | {tn:.4} | {:.2}× | {:.1} % | {:.2} % | {:.0} % | {:.0} % | {split} | {flag} |",
             t1 / tn,
             100.0 * s,
             100.0 * share,
@@ -134,14 +238,6 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
             100.0 * efficiency(s, 64),
         );
     }
-    println!();
-    println!(
-        "serial fraction s = (N·T_N/T_1 − 1)/(N − 1), efficiency at M threads 1/(1 + s(M − 1)); \
-         \"its serial time / run\": s·T_1 of the phase over the whole run's T_1 (they add up to \
-         about the whole run's serial fraction). Measured on few threads, s also counts waiting \
-         and contention, not only serial code."
-    );
-    Ok(())
 }
 
 #[cfg(test)]
@@ -157,5 +253,26 @@ mod tests {
                 assert!((efficiency(s, n) - 1.0 / (n as f64 * tn)).abs() < 1e-12);
             }
         }
+    }
+
+    #[test]
+    fn waiting_and_more_work_make_up_the_serial_fraction() {
+        // A phase of 1 s on one thread whose N-thread run did 1.1 s of processor work with its
+        // threads busy 80 % of the time: T_N = 1.1/(0.8 N).
+        for n in [2, 4, 16] {
+            let tn = 1.1 / (0.8 * n as f64);
+            let p = Phase::new(1.0, tn, 1.0, 1.1, n).unwrap();
+            let m = n as f64 - 1.0;
+            let product = (1.0 + m * p.more_work) * (1.0 + m * p.waiting);
+            assert!((product - (1.0 + m * p.serial)).abs() < 1e-12);
+            assert!((p.busy - 0.8).abs() < 1e-12);
+            assert!((p.more_work - 0.1 / m).abs() < 1e-12);
+            assert!((p.waiting - 0.25 / m).abs() < 1e-12);
+        }
+        // Every thread busy and no work added: no serial fraction at all.
+        let p = Phase::new(1.0, 0.5, 1.0, 1.0, 2).unwrap();
+        assert!(p.serial.abs() < 1e-12 && p.waiting.abs() < 1e-12 && p.more_work.abs() < 1e-12);
+        // No process clock: nothing to split.
+        assert_eq!(Phase::new(1.0, 0.5, 0.0, 0.0, 2), None);
     }
 }
