@@ -60,6 +60,7 @@
 
 mod accel;
 mod atomic;
+mod buffers;
 mod choices;
 mod dda;
 pub mod error;

@@ -19,7 +19,8 @@ pub(crate) struct Frame {
 impl Frame {
     /// A black frame of `pixels` pixels.
     pub(crate) fn new(pixels: usize) -> Self {
-        Frame { value: vec![Rgb::ZERO; pixels], bias: vec![Rgb::ZERO; pixels] }
+        let black = || crate::buffers::filled(pixels, Rgb::ZERO);
+        Frame { value: black(), bias: black() }
     }
 }
 

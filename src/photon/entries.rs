@@ -111,8 +111,7 @@ impl Entries {
             by_band.iter().flat_map(move |(list, at)| &list[at[k] as usize..at[k + 1] as usize])
         };
         let slices_of = |k: usize| ((k * slices) as i32, ((k + 1) * slices) as i32 - 1);
-        self.start.clear();
-        self.start.resize(buckets + 1, 0);
+        crate::buffers::fill(&mut self.start, buckets + 1, 0);
         self.start[1..].par_chunks_mut(band).enumerate().with_max_len(1).for_each(|(k, count)| {
             let (z0, z1) = slices_of(k);
             for &i in reaching(k) {
@@ -123,7 +122,7 @@ impl Entries {
             self.start[b + 1] += self.start[b];
         }
         // Scatter the photon indices, each band into its own part of the entries.
-        self.idx.resize(self.start[buckets] as usize, 0);
+        crate::buffers::resize(&mut self.idx, self.start[buckets] as usize, 0);
         let mut parts = Vec::with_capacity(bands);
         let mut rest = &mut self.idx[..];
         for k in 0..bands {
@@ -149,7 +148,7 @@ impl Entries {
         // Gather the positions (sequential writes, in parallel).
         let n = self.idx.len();
         for v in [&mut self.x, &mut self.y, &mut self.z] {
-            v.resize(n, 0.0);
+            crate::buffers::resize(v, n, 0.0);
         }
         const CHUNK: usize = 1 << 14;
         self.idx

@@ -37,8 +37,8 @@ impl CountingSort {
         start: &mut Vec<u32>,
         order: &mut Vec<u32>,
     ) {
-        order.clear();
-        order.resize(keys.len(), 0);
+        // Every slot is written: the buffer's earlier contents need no clearing.
+        crate::buffers::resize(order, keys.len(), 0);
         self.run(keys, buckets, start, Some(order));
     }
 
@@ -55,8 +55,7 @@ impl CountingSort {
         order: Option<&mut [u32]>,
     ) {
         debug_assert!(keys.par_iter().all(|&k| (k as usize) < buckets));
-        start.clear();
-        start.resize(buckets + 1, 0);
+        crate::buffers::fill(start, buckets + 1, 0);
         start[buckets] = keys.len() as u32;
         if keys.len() < SERIAL_BELOW || buckets < 2 {
             let pairs = || keys.iter().enumerate().map(|(i, &k)| (i as u32, k as usize));
