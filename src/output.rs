@@ -7,6 +7,7 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 pub use crate::region::{NOISIEST_SHARE, Region};
 use crate::settings::{Integrator, RenderSettings};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// How an image was made; written into the EXR header as `haze:*` attributes (the settings as
@@ -180,12 +181,13 @@ impl Image {
     pub fn write(&self, path: &Path, exposure: f32) -> Result<Vec<PathBuf>> {
         match extension(path).as_deref() {
             Some("exr") => {
-                // The preview only once the image is written: a failed write leaves both files
-                // as they were.
-                self.write_exr(path)?;
-                let png = preview_path(path);
-                self.write_png(&png, exposure)?;
-                Ok(vec![path.to_path_buf(), png])
+                // The preview is encoded while the OpenEXR file is compressed and written, and
+                // written only once the image is: a failed write leaves both files as they were.
+                let (exr, png) = rayon::join(|| self.write_exr(path), || self.encode_png(exposure));
+                exr?;
+                let png_path = preview_path(path);
+                write_png_bytes(&png_path, png)?;
+                Ok(vec![path.to_path_buf(), png_path])
             }
             Some("png") => {
                 self.write_png(path, exposure)?;
@@ -211,10 +213,12 @@ impl Image {
         if extension(exr_path).as_deref() != Some("exr") {
             return Err(out_err(exr_path, "a reference is an OpenEXR file: name it .exr"));
         }
-        self.write_exr_with(exr_path, true)?;
-        let png = preview_path(exr_path);
-        self.write_png(&png, exposure)?;
-        Ok(vec![exr_path.to_path_buf(), png])
+        let (exr, png) =
+            rayon::join(|| self.write_exr_with(exr_path, true), || self.encode_png(exposure));
+        exr?;
+        let png_path = preview_path(exr_path);
+        write_png_bytes(&png_path, png)?;
+        Ok(vec![exr_path.to_path_buf(), png_path])
     }
 
     /// How a reference was made, as its `haze:reference` attribute says.
@@ -340,19 +344,29 @@ impl Image {
     /// Writes an 8-bit sRGB PNG after scaling by `exposure` and clamping, marked as haze's
     /// (text chunk `Software` = `haze`, which [`is_haze_preview`] looks for).
     pub fn write_png(&self, path: &Path, exposure: f32) -> Result<()> {
+        write_png_bytes(path, self.encode_png(exposure))
+    }
+
+    /// The PNG file of [`Self::write_png`], in memory (or why it could not be encoded).
+    fn encode_png(&self, exposure: f32) -> std::result::Result<Vec<u8>, String> {
         let data: Vec<u8> =
             self.pixels.iter().flat_map(|p| p.map(|c| srgb8(c * exposure))).collect();
-        write_atomically(path, |w| {
-            let mut enc = png::Encoder::new(w, self.width, self.height);
-            enc.set_color(png::ColorType::Rgb);
-            enc.set_depth(png::BitDepth::Eight);
-            enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-            enc.add_text_chunk("Software".into(), "haze".into()).map_err(|e| e.to_string())?;
-            let mut writer = enc.write_header().map_err(|e| e.to_string())?;
-            writer.write_image_data(&data).map_err(|e| e.to_string())?;
-            writer.finish().map_err(|e| e.to_string())
-        })
+        let mut bytes = Vec::new();
+        let mut enc = png::Encoder::new(&mut bytes, self.width, self.height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        enc.add_text_chunk("Software".into(), "haze".into()).map_err(|e| e.to_string())?;
+        let mut writer = enc.write_header().map_err(|e| e.to_string())?;
+        writer.write_image_data(&data).map_err(|e| e.to_string())?;
+        writer.finish().map_err(|e| e.to_string())?;
+        Ok(bytes)
     }
+}
+
+/// Writes an encoded PNG file atomically (`png` as [`Image::encode_png`] gave it).
+fn write_png_bytes(path: &Path, png: std::result::Result<Vec<u8>, String>) -> Result<()> {
+    write_atomically(path, |w| w.write_all(&png?).map_err(|e| e.to_string()))
 }
 
 /// One RGB plane of an image, as the OpenEXR writer reads it.
