@@ -233,7 +233,7 @@ impl Combined {
             let mut times = StepTimes::default();
             let kernels = self.photons_at(scene, seed, i, paths, stop, &mut times)?;
             let stored = (self.photons.surface.len() + self.photons.volume.len()) as u64;
-            let records = self.photons.surface_mis.iter().chain(&self.photons.volume_mis);
+            let records = self.photons.surface_mis.par_iter().chain(&self.photons.volume_mis);
             let merges_only = records.filter(|r| r.light == LightMis::default()).count() as u64;
             let spent = times.photon_trace + times.surface_map + times.volume_map;
             let clock = Instant::now();

@@ -196,24 +196,31 @@ impl PhotonMapper {
     /// The pilot paths of the photons in hand (the first numbered `first`), each with the sum of
     /// its photons' tallies in `marks`.
     fn pilot_paths(&self, marks: &GatherMarks, first: u64) -> Vec<PilotPath> {
+        use rayon::prelude::*;
         let photons = &self.photons;
+        let volume_origin = |slot| match self.plan.estimate {
+            VolumeEstimate::Beam => self.volume_beams.origin(slot),
+            VolumeEstimate::Point => self.volume_points.origin(slot),
+        };
+        // The gathered slots' paths and tallies, found in parallel and kept in slot order
+        // (surface slots, then volume slots), then added up in that order on one thread: the
+        // sums of the serial loop over every slot, bit for bit.
+        let gathered = |tally: &Tally, path: &(dyn Fn(usize) -> u32 + Sync)| {
+            (0..tally.len())
+                .into_par_iter()
+                .with_min_len(1 << 12)
+                .filter_map(|slot| {
+                    let v = tally.get(slot);
+                    (v > 0.0).then(|| (path(slot), v))
+                })
+                .collect::<Vec<(u32, f32)>>()
+        };
+        let surface =
+            gathered(&marks.surface, &|slot| photons.surface_path[self.surface_map.origin(slot)]);
+        let volume = gathered(&marks.volume, &|slot| photons.volume_path[volume_origin(slot)]);
         let mut value = vec![0.0f32; photons.paths.len()];
-        let local = |path: u32| (path as u64 - first) as usize;
-        for slot in 0..marks.surface.len() {
-            let v = marks.surface.get(slot);
-            if v > 0.0 {
-                value[local(photons.surface_path[self.surface_map.origin(slot)])] += v;
-            }
-        }
-        for slot in 0..marks.volume.len() {
-            let v = marks.volume.get(slot);
-            if v > 0.0 {
-                let photon = match self.plan.estimate {
-                    VolumeEstimate::Beam => self.volume_beams.origin(slot),
-                    VolumeEstimate::Point => self.volume_points.origin(slot),
-                };
-                value[local(photons.volume_path[photon])] += v;
-            }
+        for (path, v) in surface.into_iter().chain(volume) {
+            value[(path as u64 - first) as usize] += v;
         }
         photons
             .paths

@@ -57,6 +57,9 @@ const SPLIT_MIN: usize = 8;
 /// … down to cells of side 2⁻ᴹᴬˣ_ᴰᴱᴾᵀᴴ.
 const MAX_DEPTH: u32 = 10;
 
+/// A node of at least this many pilot points grows its quadrants' subtrees in parallel.
+const PARALLEL_POINTS: usize = 1 << 14;
+
 /// Which pair of a light's emission uniforms the guide warps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Guided {
@@ -76,7 +79,7 @@ pub(crate) fn guided(light: &Light) -> Guided {
 
 /// A node of a [`QuadTree`]: the masses of its four quadrants (x-half + 2 · y-half) and their
 /// nodes (0: a leaf; the root is node 0 and no one's child).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 struct Node {
     mass: [f32; 4],
     child: [u32; 4],
@@ -95,6 +98,8 @@ const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 struct Fit {
     all: f64,
     total: f64,
+    /// Nodes of at least this many points grow their subtrees in parallel.
+    parallel_from: usize,
 }
 
 /// The node of quadrant `q` of node `at`, if it is not a leaf.
@@ -120,12 +125,17 @@ impl QuadTree {
     /// normalisation; a cell is split while it holds more than a share of the total moment
     /// (module docs).
     pub(crate) fn fit(points: &mut [(Vec2, f32)], defensive: f32) -> (Self, f64) {
+        Self::fit_with(points, defensive, PARALLEL_POINTS)
+    }
+
+    /// [`Self::fit`], growing subtrees of nodes of at least `parallel_from` points in parallel.
+    fn fit_with(points: &mut [(Vec2, f32)], defensive: f32, parallel_from: usize) -> (Self, f64) {
         let total: f64 = points.iter().map(|p| p.1 as f64).sum();
         if total <= 0.0 {
             return (Self::uniform(), 0.0);
         }
         let mut tree = Self { nodes: Vec::new() };
-        let fit = Fit { all: points.len() as f64, total };
+        let fit = Fit { all: points.len() as f64, total, parallel_from };
         let integral = tree.grow(points, Vec2::ZERO, 1.0, 0, &fit) as f64;
         // Normalise the √m masses to one and mix in the uniform density.
         let scale = (1.0 - defensive) / integral as f32;
@@ -158,7 +168,9 @@ impl QuadTree {
     }
 
     /// Appends the node over the square at `origin` of side `size` holding `points`; returns its
-    /// √m mass.
+    /// √m mass. Nodes of at least `fit.parallel_from` points grow their quadrants' subtrees side
+    /// by side, each into a tree of its own that is then appended: the nodes, their order (depth
+    /// first, quadrants in order) and every mass are those of growing them one after another.
     fn grow(
         &mut self,
         points: &mut [(Vec2, f32)],
@@ -173,6 +185,7 @@ impl QuadTree {
         let mid = origin + Vec2::splat(half);
         let quadrant = |p: &(Vec2, f32)| (p.0.x >= mid.x) as usize + 2 * (p.0.y >= mid.y) as usize;
         points.sort_unstable_by_key(quadrant);
+        let mut quadrants = Vec::with_capacity(4);
         let mut rest = points;
         for q in 0..4 {
             let n = rest.iter().take_while(|p| quadrant(p) == q).count();
@@ -180,19 +193,52 @@ impl QuadTree {
             rest = tail;
             let seen = mine.iter().filter(|p| p.1 > 0.0).count();
             let moment: f64 = mine.iter().map(|p| p.1 as f64).sum();
-            let corner = origin + Vec2::new((q % 2) as f32, (q / 2) as f32) * half;
             let split = depth + 1 < MAX_DEPTH
                 && seen >= SPLIT_MIN
                 && moment > SPLIT_SHARE as f64 * fit.total;
-            let mass = if split {
-                let c = self.nodes.len() as u32;
-                self.nodes[at].child[q] = c;
-                self.grow(mine, corner, half, depth + 1, fit)
-            } else {
-                let area = (half * half) as f64;
-                ((moment / (fit.all * area)).sqrt() * area) as f32
-            };
-            self.nodes[at].mass[q] = mass;
+            quadrants.push((q, mine, moment, split));
+        }
+        let corner = |q: usize| origin + Vec2::new((q % 2) as f32, (q / 2) as f32) * half;
+        let leaf = |moment: f64| {
+            let area = (half * half) as f64;
+            ((moment / (fit.all * area)).sqrt() * area) as f32
+        };
+        if quadrants.iter().map(|(_, mine, ..)| mine.len()).sum::<usize>() < fit.parallel_from {
+            for (q, mine, moment, split) in quadrants {
+                let mass = if split {
+                    self.nodes[at].child[q] = self.nodes.len() as u32;
+                    self.grow(mine, corner(q), half, depth + 1, fit)
+                } else {
+                    leaf(moment)
+                };
+                self.nodes[at].mass[q] = mass;
+            }
+        } else {
+            let grown: Vec<(usize, Option<QuadTree>, f32)> = quadrants
+                .into_par_iter()
+                .map(|(q, mine, moment, split)| {
+                    if split {
+                        let mut sub = Self { nodes: Vec::new() };
+                        let mass = sub.grow(mine, corner(q), half, depth + 1, fit);
+                        (q, Some(sub), mass)
+                    } else {
+                        (q, None, leaf(moment))
+                    }
+                })
+                .collect();
+            for (q, sub, mass) in grown {
+                if let Some(sub) = sub {
+                    let offset = self.nodes.len() as u32;
+                    self.nodes[at].child[q] = offset;
+                    self.nodes.extend(sub.nodes.into_iter().map(|mut node| {
+                        for c in node.child.iter_mut().filter(|c| **c != 0) {
+                            *c += offset;
+                        }
+                        node
+                    }));
+                }
+                self.nodes[at].mass[q] = mass;
+            }
         }
         self.nodes[at].mass.iter().sum()
     }
@@ -447,6 +493,29 @@ mod tests {
     use super::*;
     use crate::rng::{Purpose, Sampler};
     use crate::testing::{ChiSquare, Domain, Sample};
+
+    /// Subtrees grown side by side are the subtrees grown one after another: the same nodes in
+    /// the same order with the same masses, bit for bit, so that the guide (and the image) does
+    /// not depend on the number of threads.
+    #[test]
+    fn quadtree_grown_in_parallel_is_the_serial_one() {
+        let mut s = Sampler::new(5, Purpose::Other, 0, 0);
+        let points: Vec<(Vec2, f32)> = (0..100_000)
+            .map(|_| {
+                let u = s.next_2d();
+                let near = (u - Vec2::new(0.3, 0.7)).length() < 0.1 || u.x > 0.9;
+                (u, if near { s.next_f32() * 4.0 } else { (s.next_f32() < 0.01) as u8 as f32 })
+            })
+            .collect();
+        let (serial, a) = QuadTree::fit_with(&mut points.clone(), 0.1, usize::MAX);
+        assert!(serial.leaves() > 50, "{} leaves", serial.leaves());
+        for from in [1, 64, PARALLEL_POINTS] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+            let (parallel, b) = pool.install(|| QuadTree::fit_with(&mut points.clone(), 0.1, from));
+            assert_eq!(parallel.nodes, serial.nodes, "parallel from {from} points");
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+    }
 
     /// A quadtree fitted to points crowding in a small square: its warp follows its density
     /// (chi-square), the density integrates to one, is at least the defensive share everywhere,
