@@ -114,9 +114,13 @@ impl StepTimes {
     }
 }
 
-/// Fills `frame` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over rows.
+/// Pixels a camera pass hands out at a time.
+const RUN: usize = 128;
+
+/// Fills `frame` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over runs
+/// of pixels.
 /// Non-finite samples (value or bias) become black without bias and are counted in `nonfinite`.
-/// Returns `false` if `stop` was raised before every row was done.
+/// Returns `false` if `stop` was raised before every pixel was done.
 pub(crate) fn render_rows(
     frame: &mut Frame,
     width: usize,
@@ -138,22 +142,25 @@ pub(crate) fn render_rows_with<T: Send + Default>(
     nonfinite: &AtomicU64,
     radiance: impl Fn(u32, u32) -> (Estimate, T) + Sync,
 ) -> bool {
-    let rows = frame.value.par_chunks_mut(width).zip(frame.bias.par_chunks_mut(width));
-    // Row by row: rayon would otherwise hand each thread a run of rows at once, and where rows
-    // differ in cost one thread can be left with the last long run while the others wait
-    // (cornell-fog's hybrid camera pass kept a second thread busy only 65 % of the time).
-    let rows = rows.zip(extra.par_chunks_mut(width)).enumerate().with_max_len(1);
-    rows.for_each(|(y, ((row, bias), more))| {
+    // Runs of RUN pixels (a run may end in the next row) handed out one at a time: rayon would
+    // otherwise hand each thread a long stretch of the image at once, and where pixels differ in
+    // cost one thread can be left with the last long stretch while the others wait
+    // (cornell-fog's hybrid camera pass kept a second thread busy only 65 % of the time). The
+    // wait at the end of a pass is at most one run, a few tenths of a millisecond.
+    let runs = frame.value.par_chunks_mut(RUN).zip(frame.bias.par_chunks_mut(RUN));
+    let runs = runs.zip(extra.par_chunks_mut(RUN)).enumerate().with_max_len(1);
+    runs.for_each(|(k, ((run, bias), more))| {
         if stop.load(Ordering::Relaxed) {
             return;
         }
-        for (x, ((px, b), m)) in row.iter_mut().zip(bias).zip(more).enumerate() {
+        for (j, ((px, b), m)) in run.iter_mut().zip(bias).zip(more).enumerate() {
             // Pixel by pixel: in a pathological medium one pixel can take milliseconds, and a
             // stopped iteration is discarded anyway.
             if stop.load(Ordering::Relaxed) {
                 return;
             }
-            let (e, own) = radiance(x as u32, y as u32);
+            let p = k * RUN + j;
+            let (e, own) = radiance((p % width) as u32, (p / width) as u32);
             (*px, *b, *m) = if e.value.is_finite() && e.bias.is_finite() {
                 (e.value, e.bias, own)
             } else {
