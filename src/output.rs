@@ -7,7 +7,6 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 pub use crate::region::{NOISIEST_SHARE, Region};
 use crate::settings::{Integrator, RenderSettings};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// How an image was made; written into the EXR header as `haze:*` attributes (the settings as
@@ -182,7 +181,8 @@ impl Image {
         match extension(path).as_deref() {
             Some("exr") => {
                 // The preview is encoded while the OpenEXR file is compressed and written, and
-                // written only once the image is: a failed write leaves both files as they were.
+                // written only once the image is: a failed OpenEXR write leaves both files as
+                // they were.
                 let (exr, png) = rayon::join(|| self.write_exr(path), || self.encode_png(exposure));
                 exr?;
                 let png_path = preview_path(path);
@@ -364,9 +364,10 @@ impl Image {
     }
 }
 
-/// Writes an encoded PNG file atomically (`png` as [`Image::encode_png`] gave it).
+/// Writes an encoded PNG file atomically (`png` as [`Image::encode_png`] gave it, or why not).
 fn write_png_bytes(path: &Path, png: std::result::Result<Vec<u8>, String>) -> Result<()> {
-    write_atomically(path, |w| w.write_all(&png?).map_err(|e| e.to_string()))
+    let png = png.map_err(|message| out_err(path, format!("not written: {message}")))?;
+    crate::atomic::write_bytes(path, &png)
 }
 
 /// One RGB plane of an image, as the OpenEXR writer reads it.

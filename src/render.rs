@@ -19,9 +19,14 @@ use std::time::Instant;
 
 /// Renders `scene` with `settings`, reporting to `progress` after every iteration, until the
 /// iteration count or time limit is reached or `stop` is raised. Both the time limit and `stop`
-/// are honoured inside an iteration (the passes look at them every row of pixels and every batch
-/// of light paths, so a stop takes effect within a fraction of a second); the iteration they
-/// interrupt is discarded, and every finished one is in the returned image.
+/// are honoured inside an iteration (the passes look at them every pixel and every batch of light
+/// paths, so a stop takes effect within a fraction of a second); the iteration they interrupt is
+/// discarded, and every finished one is in the returned image.
+///
+/// On more than one thread, the render's working buffers (photon maps and scratch space) are
+/// freed on a thread of its own started as the render returns, so that the caller can write the
+/// image meanwhile; a caller that starts the next render at once may hold both renders' buffers
+/// for those few tens of milliseconds. A render on one thread frees them before returning.
 ///
 /// ```no_run
 /// use haze::{Scene, render, progress::Status};

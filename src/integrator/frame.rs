@@ -1,5 +1,5 @@
-//! What an iteration makes: its frame of pixel estimates, rendered row by row, and the seconds
-//! each step took.
+//! What an iteration makes: its frame of pixel estimates, rendered in runs of pixels, and the
+//! seconds each step took.
 
 use crate::estimate::Estimate;
 use crate::math::Rgb;
@@ -50,8 +50,9 @@ pub struct StepTimes {
 /// Processor seconds each step took: the time the process's threads ran, all together, so that
 /// a step that kept N threads busy shows about N times its wall-clock seconds. Against the wall
 /// clock it tells threads that wait (processor time below N × wall) from threads that work
-/// slower side by side (more processor time than on one thread). Zero where the platform has no
-/// process clock (not Unix).
+/// slower side by side (more processor time than on one thread). It counts every thread of the
+/// process, the render's and any other (a caller's, the OpenEXR writer's pool). Zero where the
+/// platform has no process clock ([`processor_seconds`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ProcessorTimes {
     /// The pilot ([`StepTimes::pilot`]).
@@ -68,15 +69,29 @@ pub struct ProcessorTimes {
     pub film: f64,
 }
 
-/// Seconds of processor time the process has used so far, all its threads together (0 where
-/// the platform has no process clock).
+/// Seconds of processor time the process has used so far, all its threads together — every
+/// thread of the process, not only the render's (0 where the platform has no process clock, or
+/// where the system refuses it, as a sandbox may).
 pub fn processor_seconds() -> f64 {
-    #[cfg(unix)]
+    #[cfg(any(
+        target_os = "linux",
+        target_os = "android",
+        target_os = "macos",
+        target_os = "ios",
+        target_os = "freebsd"
+    ))]
     {
-        let t = rustix::time::clock_gettime(rustix::time::ClockId::ProcessCPUTime);
-        t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+        use rustix::time::{ClockId, DynamicClockId, clock_gettime_dynamic};
+        clock_gettime_dynamic(DynamicClockId::Known(ClockId::ProcessCPUTime))
+            .map_or(0.0, |t| t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9)
     }
-    #[cfg(not(unix))]
+    #[cfg(not(any(
+        target_os = "linux",
+        target_os = "android",
+        target_os = "macos",
+        target_os = "ios",
+        target_os = "freebsd"
+    )))]
     {
         0.0
     }
@@ -146,7 +161,7 @@ pub(crate) fn render_rows_with<T: Send + Default>(
     // otherwise hand each thread a long stretch of the image at once, and where pixels differ in
     // cost one thread can be left with the last long stretch while the others wait
     // (cornell-fog's hybrid camera pass kept a second thread busy only 65 % of the time). The
-    // wait at the end of a pass is at most one run, a few tenths of a millisecond.
+    // wait at the end of a pass is at most one run (there, about half a millisecond).
     let runs = frame.value.par_chunks_mut(RUN).zip(frame.bias.par_chunks_mut(RUN));
     let runs = runs.zip(extra.par_chunks_mut(RUN)).enumerate().with_max_len(1);
     runs.for_each(|(k, ((run, bias), more))| {
@@ -178,7 +193,13 @@ mod tests {
 
     /// A thread that works for 30 ms of wall-clock time uses processor time the process clock
     /// sees (other tests' threads can only add to it).
-    #[cfg(unix)]
+    #[cfg(any(
+        target_os = "linux",
+        target_os = "android",
+        target_os = "macos",
+        target_os = "ios",
+        target_os = "freebsd"
+    ))]
     #[test]
     fn the_processor_clock_counts_work() {
         let clock = Stopwatch::start();

@@ -406,10 +406,22 @@ fn bench_scaling_reports_every_phase_on_both_thread_counts() {
         assert!(time(cells[2]) >= 0.0 && time(cells[3]) >= 0.0, "{row}");
         assert!(cells[4].ends_with('×') && cells[5].ends_with('%'), "{row}");
     }
-    // The processor clock's split of the whole run: the 2-thread run's processors busy between
-    // 0 and 100 % (a little above where the clocks' readings straddle a tick), and
+    // The processor clock's split of the whole run (where the platform has the clock): the
+    // 2-thread run's processors busy between 0 and 100 % (a little above where the clocks'
+    // readings straddle a tick, or the OpenEXR writer's own pool runs), and
     // 1 + s = (1 + more work)(1 + waiting) for N = 2, to the rounding of the printed per cents.
     let row = text.lines().find(|l| l.starts_with("| whole run |")).expect("no whole run row");
+    if cfg!(not(any(
+        target_os = "linux",
+        target_os = "android",
+        target_os = "macos",
+        target_os = "ios",
+        target_os = "freebsd"
+    ))) {
+        assert!(row.contains("— | — | —"), "{row}");
+        check_scaling_refusals(&scene);
+        return;
+    }
     let cells: Vec<&str> = row.split('|').map(str::trim).collect();
     let percent = |c: &str| {
         let v = c.strip_suffix(" %").unwrap_or_else(|| panic!("{c} in {row}"));
@@ -417,9 +429,15 @@ fn bench_scaling_reports_every_phase_on_both_thread_counts() {
     };
     let (serial, busy, waiting, more) =
         (percent(cells[5]), percent(cells[9]), percent(cells[10]), percent(cells[11]));
-    assert!(busy > 0.0 && busy <= 1.02, "{row}");
+    assert!(busy > 0.0 && busy <= 1.1, "{row}");
     assert!(((1.0 + more) * (1.0 + waiting) - (1.0 + serial)).abs() < 0.003, "{row}");
-    assert!((1.0 / busy - 1.0 - waiting).abs() < 0.02, "{row}");
+    // busy is printed to 0.05 %: 1/busy to within 0.0005/busy².
+    assert!((1.0 / busy - 1.0 - waiting).abs() < 0.001 + 0.0005 / (busy * busy), "{row}");
+    check_scaling_refusals(&scene);
+}
+
+/// `haze bench --scaling` refuses a single thread and no rounds.
+fn check_scaling_refusals(scene: &std::path::Path) {
     let (ok, err) = haze(&["bench", scene.to_str().unwrap(), "--scaling", "-j", "1"]);
     assert!(!ok && err.contains("at least 2 threads"), "{err}");
     let (ok, err) =

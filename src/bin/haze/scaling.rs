@@ -183,7 +183,10 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
          and contention, not only serial code; the processor clock tells them apart: \"busy\" is \
          the N-thread run's processor time over N × its wall-clock time, \"waiting\" the serial \
          fraction its idle processors stand for, \"more work\" the one its processor time grown \
-         over the 1-thread run's stands for (contention, work repeated per thread)."
+         over the 1-thread run's wall-clock time stands for (contention, work repeated per \
+         thread; below zero where the 1-thread run left its processor idle, reading or writing \
+         files). The clock counts every thread of the process (the OpenEXR writer's own pool \
+         too), so \"busy\" can pass 100 % in a phase that writes."
     );
     if stolen > 0.0 {
         println!(
@@ -222,7 +225,7 @@ fn print_table(path: &Path, n: usize, rounds: usize, one: &Run, many: &Run) {
         };
         let split = match Phase::new(t1, tn, one.processor[i], many.processor[i], n) {
             Some(p) => format!(
-                "{:.0} % | {:.1} % | {:.1} %",
+                "{:.1} % | {:.1} % | {:.1} %",
                 100.0 * p.busy,
                 100.0 * p.waiting,
                 100.0 * p.more_work
