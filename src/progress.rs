@@ -2,7 +2,7 @@
 //! every finished iteration, and the caller decides what to show (the CLI draws a progress bar).
 
 use crate::film::Film;
-pub use crate::integrator::frame::{ProcessorTimes, StepTimes, processor_seconds};
+pub use crate::integrator::frame::{ProcessorTimes, StepTimes, Stopwatch, processor_seconds};
 use crate::output::{Image, RenderInfo};
 
 /// What is known after an iteration.

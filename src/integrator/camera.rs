@@ -275,7 +275,7 @@ pub(crate) fn render_pass(
     frame: &mut super::frame::Frame,
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    super::frame::render_rows(frame, width, stop, nonfinite, |x, y| {
+    super::frame::render_pixels(frame, width, stop, nonfinite, |x, y| {
         pixel_radiance(scene, maps, pass, x, y)
     })
 }

@@ -404,11 +404,11 @@ fn camera_pass(
     let width = scene.camera.resolution[0] as usize;
     let Some(layers) = layers else {
         let pixel = |x, y| ctx.pixel(x, y).0;
-        return super::frame::render_rows(frame, width, stop, nonfinite, pixel);
+        return super::frame::render_pixels(frame, width, stop, nonfinite, pixel);
     };
     let mut tallies = vec![Tally::default(); frame.value.len()];
     let pixel = |x, y| ctx.pixel(x, y);
-    if !super::frame::render_rows_with(frame, &mut tallies, width, stop, nonfinite, pixel) {
+    if !super::frame::render_pixels_with(frame, &mut tallies, width, stop, nonfinite, pixel) {
         return false;
     }
     let n = frame.value.len();

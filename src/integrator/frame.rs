@@ -97,21 +97,22 @@ pub fn processor_seconds() -> f64 {
     }
 }
 
-/// Wall-clock and processor time since it was started.
+/// Wall-clock and processor time ([`processor_seconds`]) since it was started: what each step
+/// of [`StepTimes`] is timed with.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Stopwatch {
+pub struct Stopwatch {
     wall: Instant,
     processor: f64,
 }
 
 impl Stopwatch {
     /// Starts now.
-    pub(crate) fn start() -> Self {
+    pub fn start() -> Self {
         Stopwatch { wall: Instant::now(), processor: processor_seconds() }
     }
 
     /// Wall-clock seconds and processor seconds since the start.
-    pub(crate) fn lap(&self) -> (f64, f64) {
+    pub fn lap(&self) -> (f64, f64) {
         let wall = self.wall.elapsed().as_secs_f64();
         (wall, (processor_seconds() - self.processor).max(0.0))
     }
@@ -136,7 +137,7 @@ const RUN: usize = 128;
 /// of pixels.
 /// Non-finite samples (value or bias) become black without bias and are counted in `nonfinite`.
 /// Returns `false` if `stop` was raised before every pixel was done.
-pub(crate) fn render_rows(
+pub(crate) fn render_pixels(
     frame: &mut Frame,
     width: usize,
     stop: &AtomicBool,
@@ -144,12 +145,12 @@ pub(crate) fn render_rows(
     radiance: impl Fn(u32, u32) -> Estimate + Sync,
 ) -> bool {
     let mut nothing = vec![(); frame.value.len()];
-    render_rows_with(frame, &mut nothing, width, stop, nonfinite, |x, y| (radiance(x, y), ()))
+    render_pixels_with(frame, &mut nothing, width, stop, nonfinite, |x, y| (radiance(x, y), ()))
 }
 
-/// [`render_rows`], where `radiance(x, y)` also gives something of its own per pixel, kept in
+/// [`render_pixels`], where `radiance(x, y)` also gives something of its own per pixel, kept in
 /// `extra` (its default where the pixel's estimate was not finite).
-pub(crate) fn render_rows_with<T: Send + Default>(
+pub(crate) fn render_pixels_with<T: Send + Default>(
     frame: &mut Frame,
     extra: &mut [T],
     width: usize,

@@ -214,7 +214,7 @@ fn render_pass(
     frame: &mut super::frame::Frame,
 ) -> bool {
     let width = scene.camera.resolution[0] as usize;
-    super::frame::render_rows(frame, width, stop, nonfinite, |x, y| {
+    super::frame::render_pixels(frame, width, stop, nonfinite, |x, y| {
         crate::estimate::Estimate::exact(pixel_radiance(scene, lights, pass, x, y))
     })
 }

@@ -168,9 +168,9 @@ impl QuadTree {
     }
 
     /// Appends the node over the square at `origin` of side `size` holding `points`; returns its
-    /// √m mass. Nodes of at least `fit.parallel_from` points grow their quadrants' subtrees side
-    /// by side, each into a tree of its own that is then appended: the nodes, their order (depth
-    /// first, quadrants in order) and every mass are those of growing them one after another.
+    /// √m mass. Each quadrant's subtree grows into a tree of its own that is then appended, side
+    /// by side in nodes of at least `fit.parallel_from` points: the nodes, their order (depth
+    /// first, quadrants in order) and every mass are the same either way.
     fn grow(
         &mut self,
         points: &mut [(Vec2, f32)],
@@ -203,42 +203,34 @@ impl QuadTree {
             let area = (half * half) as f64;
             ((moment / (fit.all * area)).sqrt() * area) as f32
         };
-        if quadrants.iter().map(|(_, mine, ..)| mine.len()).sum::<usize>() < fit.parallel_from {
-            for (q, mine, moment, split) in quadrants {
-                let mass = if split {
-                    self.nodes[at].child[q] = self.nodes.len() as u32;
-                    self.grow(mine, corner(q), half, depth + 1, fit)
-                } else {
-                    leaf(moment)
-                };
-                self.nodes[at].mass[q] = mass;
+        // A quadrant's subtree grows into a tree of its own, appended below in quadrant order.
+        let grow = |(q, mine, moment, split): (usize, &mut [(Vec2, f32)], f64, bool)| {
+            if split {
+                let mut sub = Self { nodes: Vec::new() };
+                let mass = sub.grow(mine, corner(q), half, depth + 1, fit);
+                (q, Some(sub), mass)
+            } else {
+                (q, None, leaf(moment))
             }
+        };
+        let points: usize = quadrants.iter().map(|(_, mine, ..)| mine.len()).sum();
+        let grown: Vec<(usize, Option<QuadTree>, f32)> = if points < fit.parallel_from {
+            quadrants.into_iter().map(grow).collect()
         } else {
-            let grown: Vec<(usize, Option<QuadTree>, f32)> = quadrants
-                .into_par_iter()
-                .map(|(q, mine, moment, split)| {
-                    if split {
-                        let mut sub = Self { nodes: Vec::new() };
-                        let mass = sub.grow(mine, corner(q), half, depth + 1, fit);
-                        (q, Some(sub), mass)
-                    } else {
-                        (q, None, leaf(moment))
+            quadrants.into_par_iter().map(grow).collect()
+        };
+        for (q, sub, mass) in grown {
+            if let Some(sub) = sub {
+                let offset = self.nodes.len() as u32;
+                self.nodes[at].child[q] = offset;
+                self.nodes.extend(sub.nodes.into_iter().map(|mut node| {
+                    for c in node.child.iter_mut().filter(|c| **c != 0) {
+                        *c += offset;
                     }
-                })
-                .collect();
-            for (q, sub, mass) in grown {
-                if let Some(sub) = sub {
-                    let offset = self.nodes.len() as u32;
-                    self.nodes[at].child[q] = offset;
-                    self.nodes.extend(sub.nodes.into_iter().map(|mut node| {
-                        for c in node.child.iter_mut().filter(|c| **c != 0) {
-                            *c += offset;
-                        }
-                        node
-                    }));
-                }
-                self.nodes[at].mass[q] = mass;
+                    node
+                }));
             }
+            self.nodes[at].mass[q] = mass;
         }
         self.nodes[at].mass.iter().sum()
     }

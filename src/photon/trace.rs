@@ -718,7 +718,7 @@ pub(crate) fn trace_photons(
         let c = c as u64;
         let before = crate::work::Work::here();
         for index in c * CHUNK..((c + 1) * CHUNK).min(pass.paths) {
-            // Path by path, as pixels are (`integrator::render_rows`).
+            // Path by path, as pixels are (`integrator::render_pixels`).
             if stop.load(Ordering::Relaxed) {
                 return false;
             }

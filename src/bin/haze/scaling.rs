@@ -10,10 +10,9 @@
 
 use crate::shared::{Overrides, bench_scene, thread_pool};
 use anyhow::{Result, bail};
-use haze::progress::{Status, processor_seconds};
+use haze::progress::{Status, Stopwatch};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
-use std::time::Instant;
 
 /// A phase whose serial fraction exceeds this is flagged …
 const FLAG_FRACTION: f64 = 0.05;
@@ -47,40 +46,44 @@ struct Run {
 /// One whole run on `threads` threads: load, render, write (to a temporary file, removed).
 fn run_once(path: &Path, overrides: &Overrides, threads: usize) -> Result<Run> {
     let pool = thread_pool(Some(threads))?;
-    let whole = Instant::now();
-    let whole_cpu = processor_seconds();
+    let whole = Stopwatch::start();
     let (scene, settings) = bench_scene(&pool, path, overrides)?;
-    let load = [whole.elapsed().as_secs_f64(), processor_seconds() - whole_cpu];
-    let (mut steps, mut steps_cpu) = ([0.0f64; 6], [0.0f64; 6]);
+    let load = whole.lap();
+    // Per step, wall-clock and processor seconds summed over the iterations.
+    let mut steps = [(0.0f64, 0.0f64); 6];
     let mut on_iteration = |s: &Status| {
         let (t, p) = (&s.times, &s.times.processor);
-        let each = [t.pilot, t.photon_trace, t.surface_map, t.volume_map, t.camera, t.film];
-        let each_cpu = [p.pilot, p.photon_trace, p.surface_map, p.volume_map, p.camera, p.film];
-        for (sum, x) in steps.iter_mut().zip(each) {
-            *sum += x;
-        }
-        for (sum, x) in steps_cpu.iter_mut().zip(each_cpu) {
-            *sum += x;
+        let each = [
+            (t.pilot, p.pilot),
+            (t.photon_trace, p.photon_trace),
+            (t.surface_map, p.surface_map),
+            (t.volume_map, p.volume_map),
+            (t.camera, p.camera),
+            (t.film, p.film),
+        ];
+        for (sum, (wall, processor)) in steps.iter_mut().zip(each) {
+            *sum = (sum.0 + wall, sum.1 + processor);
         }
     };
     let stop = AtomicBool::new(false);
-    let (clock, cpu) = (Instant::now(), processor_seconds());
+    let clock = Stopwatch::start();
     let image = pool.install(|| haze::render(&scene, &settings, &mut on_iteration, &stop))?;
-    let render = [clock.elapsed().as_secs_f64(), processor_seconds() - cpu];
-    let (clock, cpu) = (Instant::now(), processor_seconds());
+    let render = clock.lap();
+    let clock = Stopwatch::start();
     let out = std::env::temp_dir().join(format!("haze-scaling-{}.exr", std::process::id()));
     let written = pool.install(|| image.write(&out, 1.0))?;
     for f in written {
         let _ = std::fs::remove_file(f);
     }
-    let write = [clock.elapsed().as_secs_f64(), processor_seconds() - cpu];
-    let whole = [whole.elapsed().as_secs_f64(), processor_seconds() - whole_cpu];
-    let phases = |k: usize, steps: [f64; 6]| -> Times {
-        let setup = (render[k] - steps.iter().sum::<f64>()).max(0.0);
+    let (write, whole) = (clock.lap(), whole.lap());
+    // Wall-clock times (`pick` the first of each pair) or processor times (the second).
+    let phases = |pick: fn((f64, f64)) -> f64| -> Times {
+        let steps = steps.map(pick);
+        let setup = (pick(render) - steps.iter().sum::<f64>()).max(0.0);
         let [pilot, trace, surface, volume, camera, film] = steps;
-        [load[k], setup, pilot, trace, surface, volume, camera, film, write[k], whole[k]]
+        [pick(load), setup, pilot, trace, surface, volume, camera, film, pick(write), pick(whole)]
     };
-    Ok(Run { wall: phases(0, steps), processor: phases(1, steps_cpu) })
+    Ok(Run { wall: phases(|t| t.0), processor: phases(|t| t.1) })
 }
 
 /// Amdahl's serial fraction from one phase's times on 1 and `n` threads.
@@ -96,13 +99,11 @@ fn efficiency(s: f64, m: usize) -> f64 {
 /// One phase's times on 1 and `n` threads, wall clock and processor, and what they say.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Phase {
-    /// Amdahl's serial fraction from the wall-clock times.
-    serial: f64,
-    /// The part of `serial` that is waiting: the serial fraction the `n`-thread run's idle
+    /// The part of Amdahl's serial fraction s that is waiting: the serial fraction the `n`-thread run's idle
     /// processor time stands for, had the work been that of one thread. Threads that wait for a
     /// serial part or for another's last work item leave their processors idle.
     waiting: f64,
-    /// The part of `serial` that is work grown on `n` threads (contention for memory or shared
+    /// The part of s that is work grown on `n` threads (contention for memory or shared
     /// cache lines, work repeated per thread): the serial fraction the growth of processor time
     /// stands for, had no thread waited.
     more_work: f64,
@@ -112,24 +113,20 @@ struct Phase {
 }
 
 impl Phase {
-    /// From wall-clock `t1`, `tn` and processor `p1`, `pn` seconds on 1 and `n` threads;
-    /// `None` where a processor time is zero (no process clock, or a phase too short to see).
-    /// The fractions satisfy 1 + (n − 1)·serial = (1 + (n − 1)·more_work)·(1 + (n − 1)·waiting):
-    /// for small fractions, serial ≈ waiting + more_work. `more_work` counts processor time
+    /// From wall-clock `t1`, `tn` seconds on 1 and `n` threads and the `n`-thread run's
+    /// processor seconds `pn`; `None` where that is zero (no process clock, or a phase too short
+    /// to see). With s = [`serial_fraction`]`(t1, tn, n)` the fractions satisfy
+    /// 1 + (n − 1)·s = (1 + (n − 1)·more_work)·(1 + (n − 1)·waiting): for small fractions,
+    /// s ≈ waiting + more_work. `more_work` counts processor time
     /// against the one-thread run's wall-clock time, so a one-thread run that left its processor
     /// idle (reading a file) lowers it.
-    fn new(t1: f64, tn: f64, p1: f64, pn: f64, n: usize) -> Option<Phase> {
-        if p1 <= 0.0 || pn <= 0.0 || tn <= 0.0 || t1 <= 0.0 {
+    fn new(t1: f64, tn: f64, pn: f64, n: usize) -> Option<Phase> {
+        if pn <= 0.0 || tn <= 0.0 || t1 <= 0.0 {
             return None;
         }
         let m = n as f64 - 1.0;
         let busy = pn / (n as f64 * tn);
-        Some(Phase {
-            serial: serial_fraction(t1, tn, n),
-            waiting: (1.0 / busy - 1.0) / m,
-            more_work: (pn / t1 - 1.0) / m,
-            busy,
-        })
+        Some(Phase { waiting: (1.0 / busy - 1.0) / m, more_work: (pn / t1 - 1.0) / m, busy })
     }
 }
 
@@ -223,7 +220,7 @@ fn print_table(path: &Path, n: usize, rounds: usize, one: &Run, many: &Run) {
         } else {
             ""
         };
-        let split = match Phase::new(t1, tn, one.processor[i], many.processor[i], n) {
+        let split = match Phase::new(t1, tn, many.processor[i], n) {
             Some(p) => format!(
                 "{:.1} % | {:.1} % | {:.1} %",
                 100.0 * p.busy,
@@ -264,18 +261,19 @@ mod tests {
         // threads busy 80 % of the time: T_N = 1.1/(0.8 N).
         for n in [2, 4, 16] {
             let tn = 1.1 / (0.8 * n as f64);
-            let p = Phase::new(1.0, tn, 1.0, 1.1, n).unwrap();
+            let p = Phase::new(1.0, tn, 1.1, n).unwrap();
             let m = n as f64 - 1.0;
             let product = (1.0 + m * p.more_work) * (1.0 + m * p.waiting);
-            assert!((product - (1.0 + m * p.serial)).abs() < 1e-12);
+            assert!((product - (1.0 + m * serial_fraction(1.0, tn, n))).abs() < 1e-12);
             assert!((p.busy - 0.8).abs() < 1e-12);
             assert!((p.more_work - 0.1 / m).abs() < 1e-12);
             assert!((p.waiting - 0.25 / m).abs() < 1e-12);
         }
         // Every thread busy and no work added: no serial fraction at all.
-        let p = Phase::new(1.0, 0.5, 1.0, 1.0, 2).unwrap();
-        assert!(p.serial.abs() < 1e-12 && p.waiting.abs() < 1e-12 && p.more_work.abs() < 1e-12);
+        let p = Phase::new(1.0, 0.5, 1.0, 2).unwrap();
+        let s = serial_fraction(1.0, 0.5, 2);
+        assert!(s.abs() < 1e-12 && p.waiting.abs() < 1e-12 && p.more_work.abs() < 1e-12);
         // No process clock: nothing to split.
-        assert_eq!(Phase::new(1.0, 0.5, 0.0, 0.0, 2), None);
+        assert_eq!(Phase::new(1.0, 0.5, 0.0, 2), None);
     }
 }
