@@ -59,8 +59,10 @@ impl<T: Copy + PartialEq + Send + Sync> Blocked<T> {
                         for x in 0..BLOCK {
                             let c = b * BLOCK + IVec3::new(x, y, z);
                             // Cells past the box (the last block's spare ones) repeat a cell of
-                            // the box, so that they never make a block look mixed.
-                            page.push(f(c.min(count - IVec3::ONE)));
+                            // the box, so that they never make a block look mixed: the nearest
+                            // cell of the box, which lies in this block and was computed first.
+                            let inside = c.min(count - IVec3::ONE);
+                            page.push(if inside == c { f(c) } else { page[local(inside)] });
                         }
                     }
                 }

@@ -583,15 +583,58 @@ fn read_transform(c: &mut Cursor, d: &Descriptor) -> Result<Transform, ScanError
     Ok(Transform { map, place })
 }
 
-/// Calls `f(first voxel, edge length in voxels, value)` for every active voxel and tile (root
-/// tiles included) of grid `grid` (full or half floats), decoding the file's bytes; every count
-/// and length is checked before it is used. The value is the float of a float grid, or component
-/// `component` (0, 1, 2) of a vector grid's.
+/// What [`for_each_value`] hands a grid's values to.
+pub(crate) trait Sink {
+    /// `edge`³ voxels from `origin` holding `v`: a tile, or one voxel (edge 1).
+    fn item(&mut self, origin: [i32; 3], edge: i32, v: f32);
+
+    /// A leaf node's 8³ voxels from `origin`: bit i of `active` (i = 64x + 8y + z, words
+    /// little-endian) marks voxel (x, y, z) active, with its value `values[i]` (the values of
+    /// inactive voxels are zero, whatever the file holds). By default each active voxel is an
+    /// item, in index order; a sink that takes a leaf at once saves the call per voxel.
+    fn leaf(&mut self, origin: [i32; 3], active: &[u64; 8], values: &[f32; 512]) {
+        for i in leaf_voxels(active) {
+            self.item(leaf_voxel(origin, i), 1, values[i]);
+        }
+    }
+}
+
+impl<F: FnMut([i32; 3], i32, f32)> Sink for F {
+    fn item(&mut self, origin: [i32; 3], edge: i32, v: f32) {
+        self(origin, edge, v)
+    }
+}
+
+/// The active voxels of a leaf's mask, in index order.
+pub(crate) fn leaf_voxels(active: &[u64; 8]) -> impl Iterator<Item = usize> + '_ {
+    active.iter().enumerate().flat_map(|(w, &bits)| {
+        let mut bits = bits;
+        std::iter::from_fn(move || {
+            (bits != 0).then(|| {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                64 * w + k
+            })
+        })
+    })
+}
+
+/// Voxel `i` (= 64x + 8y + z) of the leaf at `origin`.
+#[inline]
+pub(crate) fn leaf_voxel(origin: [i32; 3], i: usize) -> [i32; 3] {
+    let xyz = [(i >> 6) as i32, ((i >> 3) & 7) as i32, (i & 7) as i32];
+    std::array::from_fn(|a| origin[a].wrapping_add(xyz[a]))
+}
+
+/// Hands `sink` every active voxel and tile (root tiles included) of grid `grid` (full or half
+/// floats) — leaves whole, tiles as items — decoding the file's bytes; every count and length is
+/// checked before it is used. The value is the float of a float grid, or component `component`
+/// (0, 1, 2) of a vector grid's.
 pub(crate) fn for_each_value(
     input: Input,
     grid: &str,
     component: usize,
-    f: &mut dyn FnMut([i32; 3], i32, f32),
+    sink: &mut dyn Sink,
 ) -> Result<(), ScanError> {
     let (mut c, Some(d)) = locate(input, grid)? else {
         return Err(format!("no grid named `{grid}`"));
@@ -602,6 +645,7 @@ pub(crate) fn for_each_value(
     }
     let mut values = Vec::new();
     let mut raw = Vec::new();
+    let mut leaf = [0.0f32; 512];
     walk(&mut c, &d, &mut |node| {
         // Edge of a value: a voxel in a leaf, a tile of the node's children above.
         let edge = match node.log2 {
@@ -611,6 +655,27 @@ pub(crate) fn for_each_value(
             _ => 4096,
         };
         decode(&node.values, &mut raw, &mut values)?;
+        if node.log2 == 3 {
+            let mut active = [0u64; 8];
+            for (w, bytes) in active.iter_mut().zip(node.active.chunks(8)) {
+                *w = bytes.iter().rev().fold(0, |w, &b| (w << 8) | b as u64);
+            }
+            if node.values.count == node.values.n {
+                // Every value stored: a pass without branches.
+                let stored = &values[..512 * k];
+                for (i, v) in leaf.iter_mut().enumerate() {
+                    let on = (active[i >> 6] >> (i & 63)) & 1 != 0;
+                    *v = if on { stored[i * k + component] } else { 0.0 };
+                }
+            } else {
+                leaf.fill(0.0);
+                for (n, i) in leaf_voxels(&active).enumerate() {
+                    leaf[i] = values[n * k + component];
+                }
+            }
+            sink.leaf(node.origin, &active, &leaf);
+            return Ok(());
+        }
         let dim = 1i32 << node.log2;
         let is_child = |i: usize| node.children.get(i / 8).is_some_and(|b| b & (1 << (i % 8)) != 0);
         for (n, i) in ones(node.active).enumerate() {
@@ -627,7 +692,7 @@ pub(crate) fn for_each_value(
                 let xyz = [i / (dim * dim), (i / dim) % dim, i % dim];
                 std::array::from_fn(|a| node.origin[a].wrapping_add(xyz[a] * edge))
             };
-            f(origin, edge, v);
+            sink.item(origin, edge, v);
         }
         Ok(())
     })

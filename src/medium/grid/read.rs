@@ -4,7 +4,7 @@
 //! (module docs of `grid`).
 
 use super::super::blocks::Blocked;
-use super::super::vdbscan::{Input, check_header};
+use super::super::vdbscan::{Input, Sink, check_header, leaf_voxel, leaf_voxels};
 use super::{
     BRICK, BRICK_VOXELS, Bricks, CONSTANT, DensityGrid, EMPTY, Layout, MAX_BRICKS, MAX_FILE_BYTES,
     MAX_VOXELS, SMALL, Storage,
@@ -195,23 +195,13 @@ struct ReadGrid<'a> {
     expected: Option<u64>,
 }
 
-/// Calls `f(first voxel, edge length in voxels, value)` for every active voxel and tile of the
-/// grid, decoded from the file as it is read (no copy of the file or the tree).
-fn for_each_item(
-    read: &ReadGrid,
-    path: &Path,
-    name: &str,
-    mut f: impl FnMut(IVec3, i32, f32),
-) -> Result<()> {
+/// Hands `sink` every active voxel and tile of the grid (leaves whole), decoded from the file as
+/// it is read (no copy of the file or the tree).
+fn for_each_item(read: &ReadGrid, path: &Path, name: &str, sink: &mut dyn Sink) -> Result<()> {
     // The callers' arithmetic on what a corrupt file says (origins near the ends of i32) could
     // panic: contained, and reported.
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        super::super::vdbscan::for_each_value(
-            read.input,
-            &read.grid,
-            read.component,
-            &mut |p, edge, v| f(IVec3::from(p), edge, v),
-        )
+        super::super::vdbscan::for_each_value(read.input, &read.grid, read.component, sink)
     }));
     match run {
         Ok(r) => r.map_err(|e| volume_error(path, format!("grid `{name}`: {e}"))),
@@ -219,6 +209,12 @@ fn for_each_item(
             Err(volume_error(path, format!("grid `{name}`: corrupt data (the reader failed)")))
         }
     }
+}
+
+/// True if a leaf at `origin` lies in one brick (as every leaf of a well-formed file does:
+/// OpenVDB aligns them to multiples of 8).
+fn aligned(origin: [i32; 3]) -> bool {
+    origin.iter().all(|o| o & (BRICK - 1) == 0)
 }
 
 /// What the first pass over a grid's voxels finds.
@@ -230,12 +226,80 @@ struct Census {
     max: f32,
     /// The first value that is negative or not finite, with its index.
     bad: Option<(IVec3, f32)>,
-    /// Bricks holding single voxels (tiles become constant bricks).
+    /// Bricks holding single voxels (tiles become constant bricks) …
     stored: std::collections::HashSet<IVec3>,
+    /// … the last of which (to skip a lookup for each voxel of a brick).
+    last_brick: Option<IVec3>,
 }
 
-/// The copy of the grid in `layout` (chosen by [`Layout::Auto`]'s rule when asked), checked: no
-/// voxel missing, values finite and non-negative, within the layouts' limits.
+impl Census {
+    /// Counts one voxel (edge 1) or tile.
+    fn add(&mut self, p: IVec3, edge: i32, v: f32) {
+        self.lo = self.lo.min(p);
+        self.hi = self.hi.max(p + IVec3::splat(edge - 1));
+        self.voxels += (edge as u64).pow(3);
+        if !v.is_finite() || v < 0.0 {
+            self.bad.get_or_insert((p, v));
+        }
+        self.max = self.max.max(v);
+        // Tiles become constant bricks (their table entries only).
+        if edge < BRICK && self.last_brick != Some(p >> 3) {
+            self.last_brick = Some(p >> 3);
+            self.stored.insert(p >> 3);
+        }
+    }
+}
+
+impl Sink for Census {
+    fn item(&mut self, origin: [i32; 3], edge: i32, v: f32) {
+        self.add(IVec3::from(origin), edge, v);
+    }
+
+    /// A leaf in one brick at once: what [`Census::add`] finds voxel by voxel.
+    fn leaf(&mut self, origin: [i32; 3], active: &[u64; 8], values: &[f32; 512]) {
+        let count: u32 = active.iter().map(|w| w.count_ones()).sum();
+        if count == 0 {
+            return;
+        }
+        if !aligned(origin) {
+            for i in leaf_voxels(active) {
+                self.add(IVec3::from(leaf_voxel(origin, i)), 1, values[i]);
+            }
+            return;
+        }
+        // Bit 64x + 8y + z: x is the word, y the byte within it, z the bit within that.
+        let any = active.iter().fold(0, |a, w| a | w);
+        let bytes = any.to_le_bytes();
+        let z_bits = bytes.iter().fold(0u8, |a, b| a | b);
+        let span = |first: u32, last: u32| (first as i32, last as i32);
+        let x = active.iter().position(|&w| w != 0).zip(active.iter().rposition(|&w| w != 0));
+        let y = bytes.iter().position(|&b| b != 0).zip(bytes.iter().rposition(|&b| b != 0));
+        let (Some((x0, x1)), Some((y0, y1))) = (x, y) else { return };
+        let (z0, z1) = span(z_bits.trailing_zeros(), 7 - z_bits.leading_zeros());
+        let o = IVec3::from(origin);
+        self.lo = self.lo.min(o + IVec3::new(x0 as i32, y0 as i32, z0));
+        self.hi = self.hi.max(o + IVec3::new(x1 as i32, y1 as i32, z1));
+        self.voxels += count as u64;
+        // Inactive voxels' values are zero: every value can be read, without the mask.
+        let bad = |v: f32| !v.is_finite() || v < 0.0;
+        if values.iter().any(|&v| bad(v)) {
+            let first = leaf_voxels(active).find(|&i| bad(values[i]));
+            if let Some(i) = first {
+                self.bad.get_or_insert((IVec3::from(leaf_voxel(origin, i)), values[i]));
+            }
+        }
+        let mut lanes = [self.max; 8];
+        for run in values.chunks_exact(8) {
+            for (m, &v) in lanes.iter_mut().zip(run) {
+                *m = m.max(v);
+            }
+        }
+        self.max = lanes.iter().fold(self.max, |a, &b| a.max(b));
+        self.last_brick = Some(o >> 3);
+        self.stored.insert(o >> 3);
+    }
+}
+
 /// The first pass over a grid's tree: its bounds, active voxels, largest value and the bricks
 /// it stores; refused if its values or its count are wrong.
 fn census(read: &ReadGrid, path: &Path, name: &str) -> Result<Census> {
@@ -247,22 +311,9 @@ fn census(read: &ReadGrid, path: &Path, name: &str) -> Result<Census> {
         max: 0.0,
         bad: None,
         stored: Default::default(),
+        last_brick: None,
     };
-    let mut last_brick = None;
-    for_each_item(read, path, name, |p, edge, v| {
-        c.lo = c.lo.min(p);
-        c.hi = c.hi.max(p + IVec3::splat(edge - 1));
-        c.voxels += (edge as u64).pow(3);
-        if !v.is_finite() || v < 0.0 {
-            c.bad.get_or_insert((p, v));
-        }
-        c.max = c.max.max(v);
-        // Tiles become constant bricks (their table entries only).
-        if edge < BRICK && last_brick != Some(p >> 3) {
-            last_brick = Some(p >> 3);
-            c.stored.insert(p >> 3);
-        }
-    })?;
+    for_each_item(read, path, name, &mut c)?;
     if let Some(n) = read.expected {
         if n != c.voxels {
             return Err(err(format!(
@@ -284,6 +335,8 @@ fn census(read: &ReadGrid, path: &Path, name: &str) -> Result<Census> {
     Ok(c)
 }
 
+/// The copy of the grid in `layout` (chosen by [`Layout::Auto`]'s rule when asked), checked: no
+/// voxel missing, values finite and non-negative, within the layouts' limits.
 fn build(read: &ReadGrid, path: &Path, name: &str, layout: Layout) -> Result<DensityGrid> {
     let err = |m: String| volume_error(path, m);
     let mut c = census(read, path, name)?;
@@ -360,17 +413,44 @@ fn fill_dense(
     dims: IVec3,
     voxels: usize,
 ) -> Result<Vec<f32>> {
-    let mut data = vec![0.0f32; voxels];
-    for_each_item(read, path, name, |p, edge, v| {
+    let mut fill = DenseFill { data: vec![0.0f32; voxels], lo, dims };
+    for_each_item(read, path, name, &mut fill)?;
+    Ok(fill.data)
+}
+
+/// The dense copy being filled: voxels x fastest over the `dims` box from `lo`.
+struct DenseFill {
+    data: Vec<f32>,
+    lo: IVec3,
+    dims: IVec3,
+}
+
+impl DenseFill {
+    /// The index of voxel `p`.
+    #[inline]
+    fn index(&self, p: IVec3) -> usize {
+        let q = p - self.lo;
+        (q.x + self.dims.x * (q.y + self.dims.y * q.z)) as usize
+    }
+}
+
+impl Sink for DenseFill {
+    fn item(&mut self, origin: [i32; 3], edge: i32, v: f32) {
+        let p = IVec3::from(origin);
         for z in 0..edge {
             for y in 0..edge {
-                let q = p + IVec3::new(0, y, z) - lo;
-                let row = (q.x + dims.x * (q.y + dims.y * q.z)) as usize;
-                data[row..row + edge as usize].fill(v);
+                let row = self.index(p + IVec3::new(0, y, z));
+                self.data[row..row + edge as usize].fill(v);
             }
         }
-    })?;
-    Ok(data)
+    }
+
+    fn leaf(&mut self, origin: [i32; 3], active: &[u64; 8], values: &[f32; 512]) {
+        for i in leaf_voxels(active) {
+            let at = self.index(IVec3::from(leaf_voxel(origin, i)));
+            self.data[at] = values[i];
+        }
+    }
 }
 
 /// The second pass for the bricks layout: the table of `count` bricks from `brick_lo`, tiles as
@@ -386,53 +466,87 @@ fn fill_bricks(
     // Blocks of the table aligned to 8 bricks in index space, as OpenVDB's tiles of 128³
     // voxels and more are: such a tile fills whole blocks.
     let offset = (brick_lo >> 3) & 7;
-    let mut b = Bricks {
+    let bricks = Bricks {
         table: Blocked::new(count, offset, EMPTY),
         constants: Vec::new(),
         pool: Vec::with_capacity(stored * BRICK_VOXELS),
     };
-    for_each_item(read, path, name, |p, edge, v| {
-        let q = p - brick_lo;
-        if edge >= BRICK {
-            // A tile: whole bricks of one value, stored once; whole blocks of the table
-            // where it covers them.
-            let n = edge / BRICK;
-            let entry = CONSTANT | b.constants.len() as u32;
-            b.constants.push(v);
-            let first = q >> 3;
-            let step = if n % 8 == 0 && b.table.starts_block(first) { 8 } else { 1 };
-            for z in (0..n).step_by(step) {
-                for y in (0..n).step_by(step) {
-                    for x in (0..n).step_by(step) {
-                        let k = first + IVec3::new(x, y, z);
-                        if step == 8 {
-                            b.table.fill_block(k, entry);
-                        } else {
-                            b.table.set(k, entry);
-                        }
+    let mut fill = BrickFill { b: bricks, brick_lo };
+    for_each_item(read, path, name, &mut fill)?;
+    Ok(fill.b)
+}
+
+/// The bricks being filled, their table from brick `brick_lo` (in voxels).
+struct BrickFill {
+    b: Bricks,
+    brick_lo: IVec3,
+}
+
+impl BrickFill {
+    /// The stored brick `k`, made now if it has none: zeros, or a constant brick's value (a voxel
+    /// in a brick a tile covers, as two root nodes at one origin in a corrupt file give: the brick
+    /// becomes the tile's value with the voxel written over it, as the dense layout stores it).
+    fn stored(&mut self, k: IVec3) -> usize {
+        let b = &mut self.b;
+        let e = b.table.get(k);
+        if e != EMPTY && e & CONSTANT == 0 {
+            return e as usize * BRICK_VOXELS;
+        }
+        let fill = if e == EMPTY { 0.0 } else { b.constants[(e & !CONSTANT) as usize] };
+        let at = b.pool.len();
+        b.table.set(k, (at / BRICK_VOXELS) as u32);
+        b.pool.resize(at + BRICK_VOXELS, fill);
+        at
+    }
+}
+
+impl Sink for BrickFill {
+    fn item(&mut self, origin: [i32; 3], edge: i32, v: f32) {
+        let q = IVec3::from(origin) - self.brick_lo;
+        if edge < BRICK {
+            let at = self.stored(q >> 3);
+            let l = q & (BRICK - 1);
+            self.b.pool[at + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
+            return;
+        }
+        // A tile: whole bricks of one value, stored once; whole blocks of the table where it
+        // covers them.
+        let b = &mut self.b;
+        let n = edge / BRICK;
+        let entry = CONSTANT | b.constants.len() as u32;
+        b.constants.push(v);
+        let first = q >> 3;
+        let step = if n % 8 == 0 && b.table.starts_block(first) { 8 } else { 1 };
+        for z in (0..n).step_by(step) {
+            for y in (0..n).step_by(step) {
+                for x in (0..n).step_by(step) {
+                    let k = first + IVec3::new(x, y, z);
+                    if step == 8 {
+                        b.table.fill_block(k, entry);
+                    } else {
+                        b.table.set(k, entry);
                     }
                 }
             }
-        } else {
-            let k = q >> 3;
-            let mut e = b.table.get(k);
-            if e == EMPTY {
-                e = (b.pool.len() / BRICK_VOXELS) as u32;
-                b.table.set(k, e);
-                b.pool.resize(b.pool.len() + BRICK_VOXELS, 0.0);
-            }
-            if e & CONSTANT != 0 {
-                // A voxel in a brick a tile covers (two root nodes at one origin in a
-                // corrupt file): the brick becomes the tile's value with the voxel
-                // written over it, as the dense layout stores it.
-                let c = b.constants[(e & !CONSTANT) as usize];
-                e = (b.pool.len() / BRICK_VOXELS) as u32;
-                b.table.set(k, e);
-                b.pool.resize(b.pool.len() + BRICK_VOXELS, c);
-            }
-            let l = q & (BRICK - 1);
-            b.pool[e as usize * BRICK_VOXELS + (l.x + 8 * (l.y + 8 * l.z)) as usize] = v;
         }
-    })?;
-    Ok(b)
+    }
+
+    /// A leaf in one brick: the brick looked up once, its active voxels copied (the leaf's
+    /// voxel i = 64x + 8y + z to the brick's x + 8y + 64z).
+    fn leaf(&mut self, origin: [i32; 3], active: &[u64; 8], values: &[f32; 512]) {
+        if active.iter().all(|&w| w == 0) {
+            return;
+        }
+        if !aligned(origin) {
+            for i in leaf_voxels(active) {
+                self.item(leaf_voxel(origin, i), 1, values[i]);
+            }
+            return;
+        }
+        let at = self.stored((IVec3::from(origin) - self.brick_lo) >> 3);
+        let brick = &mut self.b.pool[at..at + BRICK_VOXELS];
+        for i in leaf_voxels(active) {
+            brick[(i >> 6) + 8 * ((i >> 3) & 7) + 64 * (i & 7)] = values[i];
+        }
+    }
 }
