@@ -2,7 +2,9 @@
 //! buffer grows by megabytes — a photon map's entries, an iteration's photons, a frame — that
 //! write, and the page faults of memory touched for the first time, is serial work in every
 //! iteration or at the start of every render (cumulus's beam map spent 0.11 s of 0.56 s resizing
-//! on one thread of two). These write the new elements from every thread of the pool.
+//! on one thread of two). These write the new elements from every thread of the pool, and a
+//! buffer that outgrows its capacity is replaced rather than reallocated where its contents are
+//! to be overwritten (a reallocation copies them, on one thread).
 
 use rayon::prelude::*;
 
@@ -10,9 +12,23 @@ use rayon::prelude::*;
 /// would cost more than it saves).
 const PARALLEL_FROM: usize = 1 << 15;
 
-/// [`Vec::resize`], with the new elements written in parallel: the elements already there are
-/// kept, the buffer is truncated if longer.
-pub(crate) fn resize<T: Clone + Send + Sync>(v: &mut Vec<T>, n: usize, value: T) {
+/// Makes room for `n` elements in `v`, whose contents are about to be overwritten: where its
+/// capacity is short, the buffer is freed and a larger one taken, so that growing never copies
+/// the old contents (a reallocation copies them on one thread: 5 MB in a pass of the beam map's
+/// entries). The new buffer has room for an eighth more, so that passes whose sizes vary a little
+/// do not reallocate every time.
+fn make_room<T>(v: &mut Vec<T>, n: usize) {
+    if n > v.capacity() {
+        *v = Vec::new();
+        v.reserve_exact(n + n / 8);
+    }
+}
+
+/// Sets `v` to `n` elements whose values do not matter, because the caller overwrites every one:
+/// the elements already there are kept, new ones are `value` (written in parallel), and the old
+/// contents are never copied ([`make_room`]).
+pub(crate) fn scratch<T: Clone + Send + Sync>(v: &mut Vec<T>, n: usize, value: T) {
+    make_room(v, n);
     if n < v.len() + PARALLEL_FROM {
         v.resize(n, value);
     } else {
@@ -23,19 +39,28 @@ pub(crate) fn resize<T: Clone + Send + Sync>(v: &mut Vec<T>, n: usize, value: T)
 
 /// Sets `v` to `n` copies of `value`, written in parallel.
 pub(crate) fn fill<T: Clone + Send + Sync>(v: &mut Vec<T>, n: usize, value: T) {
+    make_room(v, n);
     v.truncate(n);
-    if n < PARALLEL_FROM {
+    if v.len() < PARALLEL_FROM {
         v.fill(value.clone());
     } else {
         v.par_iter_mut().for_each(|x| *x = value.clone());
     }
-    resize(v, n, value);
+    scratch(v, n, value);
+}
+
+/// Sets `v` to the items of `items`, written in parallel ([`IndexedParallelIterator::collect_into_vec`])
+/// into room made without copying `v`'s old contents ([`make_room`]).
+pub(crate) fn collect<T: Send>(v: &mut Vec<T>, items: impl IndexedParallelIterator<Item = T>) {
+    v.clear();
+    make_room(v, items.len());
+    items.collect_into_vec(v);
 }
 
 /// A vector of `n` copies of `value`, written in parallel.
 pub(crate) fn filled<T: Clone + Send + Sync>(n: usize, value: T) -> Vec<T> {
-    let mut v = Vec::new();
-    resize(&mut v, n, value);
+    let mut v = Vec::with_capacity(n);
+    scratch(&mut v, n, value);
     v
 }
 
@@ -44,20 +69,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn grows_and_fills_as_the_serial_calls_do() {
+    fn buffers_have_the_size_and_values_asked_for() {
         for (before, n) in
             [(0, 0), (0, 10), (0, 100_000), (5, 100_000), (100_000, 7), (70_000, 140_000)]
         {
             let old: Vec<u32> = (0..before as u32).collect();
-            let (mut a, mut b) = (old.clone(), old.clone());
-            resize(&mut a, n, 9);
-            b.resize(n, 9);
-            assert_eq!(a, b);
-            let (mut a, mut b) = (old.clone(), old.clone());
+            // Scratch space: the old elements where they fit, or none of them, then `value`.
+            let mut a = old.clone();
+            scratch(&mut a, n, u32::MAX);
+            assert_eq!(a.len(), n);
+            let kept = a.iter().take_while(|&&x| x != u32::MAX).count();
+            assert!(a[..kept] == old[..kept] && a[kept..].iter().all(|&x| x == u32::MAX));
+            let mut a = old.clone();
             fill(&mut a, n, 3);
-            b.clear();
-            b.resize(n, 3);
-            assert_eq!(a, b);
+            assert_eq!(a, vec![3; n]);
             assert_eq!(filled(n, 4u32), vec![4; n]);
         }
     }

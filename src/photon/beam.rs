@@ -212,12 +212,14 @@ impl BeamMap {
         // Enter each photon in every grid cell its (slightly grown) sphere overlaps.
         let grow = radius * 1.001 + 1e-6 * sizing.extent.max_element();
         let mut spans = std::mem::take(&mut self.spans);
-        spans.clear();
-        spans.par_extend(self.photons.par_iter().map(|p| {
-            let (a, b) =
-                (self.cell_of(p.p - Vec3::splat(grow)), self.cell_of(p.p + Vec3::splat(grow)));
-            (self.swizzle(a), self.swizzle(b))
-        }));
+        crate::buffers::collect(
+            &mut spans,
+            self.photons.par_iter().map(|p| {
+                let (a, b) =
+                    (self.cell_of(p.p - Vec3::splat(grow)), self.cell_of(p.p + Vec3::splat(grow)));
+                (self.swizzle(a), self.swizzle(b))
+            }),
+        );
         let mut grid = std::mem::take(&mut self.grid);
         grid.fill(self.swizzle(self.dims), &self.photons, &spans);
         self.grid = grid;
@@ -267,10 +269,8 @@ impl BeamMap {
         self.spare.clear();
         self.kept.clear();
         let Some(t) = thinning else {
-            photons
-                .par_iter()
-                .map(|p| VolumePhoton { beta: weight(p), ..*p })
-                .collect_into_vec(&mut self.spare);
+            let weighed = photons.par_iter().map(|p| VolumePhoton { beta: weight(p), ..*p });
+            crate::buffers::collect(&mut self.spare, weighed);
             if self.track {
                 self.kept.extend(0..photons.len() as u32);
             }
@@ -280,11 +280,11 @@ impl BeamMap {
         // (about PHOTONS_PER_CELL photons each on average), whatever the grid's own size.
         let inv = 1.0 / sizing.cell(PHOTONS_PER_CELL);
         let dims = (sizing.extent * inv).ceil().as_ivec3().max(IVec3::ONE);
-        self.keys.clear();
-        self.keys.par_extend(photons.par_iter().map(|p| {
+        let key = |p: &VolumePhoton| {
             let c = ((p.p - sizing.lo) * inv).as_ivec3().clamp(IVec3::ZERO, dims - 1);
             (c.x + dims.x * (c.y + dims.y * c.z)) as u32
-        }));
+        };
+        crate::buffers::collect(&mut self.keys, photons.par_iter().map(key));
         // Photons per thinning cell, from a counting sort's bucket starts.
         let mut cells = std::mem::take(&mut self.count);
         self.sort.starts(&self.keys, dims.element_product() as usize, &mut cells);
@@ -319,23 +319,26 @@ impl BeamMap {
     fn reorder(&mut self) {
         let kept = &self.spare;
         let mut keys = std::mem::take(&mut self.keys);
-        keys.clear();
         let buckets = if self.view_active {
-            keys.par_extend(kept.par_iter().map(|p| self.view.centre_bin(p.p)));
+            crate::buffers::collect(&mut keys, kept.par_iter().map(|p| self.view.centre_bin(p.p)));
             (self.view.nx * self.view.ny) as usize + 1
         } else {
-            keys.par_extend(kept.par_iter().map(|p| self.index(self.cell_of(p.p)) as u32));
+            let cell = |p: &VolumePhoton| self.index(self.cell_of(p.p)) as u32;
+            crate::buffers::collect(&mut keys, kept.par_iter().map(cell));
             self.dims.element_product() as usize
         };
         let mut start = std::mem::take(&mut self.grid.start);
         // `source[j]` is the photon that goes to place j.
         let mut source = std::mem::take(&mut self.count);
         self.sort.sort(&keys, buckets, &mut start, &mut source);
-        source.par_iter().map(|&i| kept[i as usize]).collect_into_vec(&mut self.photons);
+        crate::buffers::collect(&mut self.photons, source.par_iter().map(|&i| kept[i as usize]));
         self.origin.clear();
         if self.track {
             let built = &self.kept;
-            self.origin.par_extend(source.par_iter().map(|&i| built[i as usize]));
+            crate::buffers::collect(
+                &mut self.origin,
+                source.par_iter().map(|&i| built[i as usize]),
+            );
         }
         self.grid.start = start;
         self.keys = keys;

@@ -122,7 +122,7 @@ impl Entries {
             self.start[b + 1] += self.start[b];
         }
         // Scatter the photon indices, each band into its own part of the entries.
-        crate::buffers::resize(&mut self.idx, self.start[buckets] as usize, 0);
+        crate::buffers::scratch(&mut self.idx, self.start[buckets] as usize, 0);
         let mut parts = Vec::with_capacity(bands);
         let mut rest = &mut self.idx[..];
         for k in 0..bands {
@@ -148,7 +148,7 @@ impl Entries {
         // Gather the positions (sequential writes, in parallel).
         let n = self.idx.len();
         for v in [&mut self.x, &mut self.y, &mut self.z] {
-            crate::buffers::resize(v, n, 0.0);
+            crate::buffers::scratch(v, n, 0.0);
         }
         const CHUNK: usize = 1 << 14;
         self.idx

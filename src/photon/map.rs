@@ -66,14 +66,12 @@ impl<P: Located + Copy + Default + Send + Sync> PhotonGrid<P> {
         let buckets = (2 * photons.len()).next_power_of_two().max(16);
         self.mask = buckets - 1;
         let mut keys = std::mem::take(&mut self.keys);
-        keys.clear();
-        keys.par_extend(
-            photons.par_iter().map(|ph| self.bucket(self.cell_of(ph.position())) as u32),
-        );
+        let key = |ph: &P| self.bucket(self.cell_of(ph.position())) as u32;
+        crate::buffers::collect(&mut keys, photons.par_iter().map(key));
         // `origin[slot]` is the photon that goes to the slot (kept only with tracking on).
         let mut origin = std::mem::take(&mut self.origin);
         self.sort.sort(&keys, buckets, &mut self.start, &mut origin);
-        origin.par_iter().map(|&i| photons[i as usize]).collect_into_vec(&mut self.photons);
+        crate::buffers::collect(&mut self.photons, origin.par_iter().map(|&i| photons[i as usize]));
         if !self.track {
             origin.clear();
         }

@@ -38,7 +38,7 @@ impl CountingSort {
         order: &mut Vec<u32>,
     ) {
         // Every slot is written: the buffer's earlier contents need no clearing.
-        crate::buffers::resize(order, keys.len(), 0);
+        crate::buffers::scratch(order, keys.len(), 0);
         self.run(keys, buckets, start, Some(order));
     }
 

@@ -126,7 +126,7 @@ fn concat<T: Copy + Default + Send + Sync>(
     field: impl Fn(&Photons) -> &Vec<T>,
 ) {
     let total = items.iter().map(|p| field(p).len()).sum();
-    crate::buffers::resize(out, total, T::default());
+    crate::buffers::scratch(out, total, T::default());
     let mut rest = &mut out[..];
     let mut parts = Vec::with_capacity(items.len());
     for item in items {

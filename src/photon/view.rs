@@ -97,8 +97,8 @@ impl ViewBins {
 
     /// Enters `photons` in the bins (set up by `setup`).
     pub(super) fn fill(&mut self, photons: &[VolumePhoton], spans: &mut Vec<Span>) {
-        spans.clear();
-        spans.par_extend(photons.par_iter().map(|p| self.footprint(p.p).unwrap_or(NO_SPAN)));
+        let span = |p: &VolumePhoton| self.footprint(p.p).unwrap_or(NO_SPAN);
+        crate::buffers::collect(spans, photons.par_iter().map(span));
         // Rows of bins are the grid's z-slices, so that bands of rows are filled in parallel.
         self.entries.fill(IVec3::new(self.nx, 1, self.ny), photons, spans);
     }
