@@ -22,7 +22,7 @@ pub struct Status<'a> {
     /// The render so far: iterations, light paths, current radii, elapsed time, …
     pub info: &'a RenderInfo,
     pub(crate) method: &'a crate::integrator::Method,
-    pub(crate) fingerprint: [u8; 32],
+    pub(crate) scene: &'a crate::Scene,
 }
 
 impl Status<'_> {
@@ -53,7 +53,7 @@ impl Status<'_> {
         crate::Partial {
             info: self.info.clone(),
             film: self.film.clone(),
-            fingerprint: self.fingerprint,
+            fingerprint: self.scene.fingerprint(),
             state: self.method.save_state(),
             output: None,
             techniques: None,

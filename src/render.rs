@@ -116,13 +116,32 @@ fn render_resolved(
     stop: &AtomicBool,
 ) -> Result<Partial> {
     let plan = Plan::new(scene, settings)?;
-    let fingerprint = scene.fingerprint();
-    let mut method = Method::new(scene, &plan);
+    std::thread::scope(|scope| {
+        // The scene's fingerprint (SHA-256 over its grids: 6 ms on one thread for the cumulus)
+        // is hashed on a thread of its own beside the first iteration, rather than before it
+        // with every other thread idle, where the render has more than one; its first use waits
+        // for it ([`Scene::fingerprint`]).
+        if rayon::current_num_threads() > 1 {
+            scope.spawn(|| scene.fingerprint());
+        }
+        render_planned(scene, settings, &plan, start, progress, stop)
+    })
+}
+
+/// [`render_resolved`] once the render is planned.
+fn render_planned(
+    scene: &Scene,
+    settings: &RenderSettings,
+    plan: &Plan,
+    start: Start,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<Partial> {
+    let mut method = Method::new(scene, plan);
     let [width, height] = scene.camera.resolution;
-    let (first, mut film, before) =
-        starting_film(start, &mut method, scene, settings, &fingerprint)?;
+    let (first, mut film, before) = starting_film(start, &mut method, scene, settings)?;
     // Last, as it traces a few light paths.
-    check_memory(scene, &plan)?;
+    check_memory(scene, plan)?;
     let start = Instant::now();
     let mut frame = crate::integrator::frame::Frame::new((width * height) as usize);
     let nonfinite = AtomicU64::new(0);
@@ -152,12 +171,12 @@ fn render_resolved(
     // The passes watch `halt`, raised by a watcher thread when `stop` is raised or the time
     // limit passes, so that neither waits for the end of an iteration.
     let halt = AtomicBool::new(false);
-    let finished = AtomicBool::new(false);
     let mut iteration = first - 1 + film.iterations(); // the last finished iteration
     std::thread::scope(|scope| {
-        scope.spawn(|| watch(settings, start, stop, &halt, &finished));
-        // Ends the watcher however this closure ends (a panic included).
-        let _finish = RaiseOnDrop(&finished);
+        // The watcher returns as soon as `_finished` is dropped, as this closure ends (by a panic
+        // too), before the scope waits for it.
+        let (_finished, watching) = std::sync::mpsc::channel::<()>();
+        scope.spawn(|| watch(settings, start, stop, &halt, watching));
         while !done(settings, iteration, start, stop) {
             let i = iteration + 1;
             let Some(mut times) = method.iterate(scene, i, &halt, &nonfinite, &mut frame) else {
@@ -177,7 +196,7 @@ fn render_resolved(
                 film: &film,
                 info: &info(&method, iteration, &nonfinite),
                 method: &method,
-                fingerprint,
+                scene,
             });
             if reached_target(settings, &film) {
                 break;
@@ -185,7 +204,7 @@ fn render_resolved(
         }
     });
     let info = info(&method, iteration, &nonfinite);
-    Ok(finish(method, info, film, fingerprint))
+    Ok(finish(method, info, film, scene.fingerprint()))
 }
 
 /// The partial render of `method`'s iterations, `method`'s buffers released ([`release`]).
@@ -231,7 +250,6 @@ fn starting_film(
     method: &mut Method,
     scene: &Scene,
     settings: &RenderSettings,
-    fingerprint: &[u8; 32],
 ) -> Result<(u64, Film, Option<RenderInfo>)> {
     let [width, height] = scene.camera.resolution;
     Ok(match start {
@@ -256,7 +274,7 @@ fn starting_film(
         }
         Start::Resume(p) => {
             let p = *p;
-            p.check_matches(fingerprint, [width, height], settings).map_err(|m| {
+            p.check_matches(&scene.fingerprint(), [width, height], settings).map_err(|m| {
                 Error::Settings(format!("cannot resume from this partial render: {m}"))
             })?;
             if let Some(state) = &p.state {
@@ -267,29 +285,26 @@ fn starting_film(
     })
 }
 
-struct RaiseOnDrop<'a>(&'a AtomicBool);
-
-impl Drop for RaiseOnDrop<'_> {
-    fn drop(&mut self) {
-        self.0.store(true, Ordering::Relaxed);
-    }
-}
-
-/// Raises `halt` when `stop` is raised or the time limit passes; returns when `finished` is.
+/// Raises `halt` when `stop` is raised or the time limit passes, looking every 5 ms; returns at
+/// once when the sender of `finished` is dropped (the render's end: it waits out no sleep).
 fn watch(
     settings: &RenderSettings,
     start: Instant,
     stop: &AtomicBool,
     halt: &AtomicBool,
-    finished: &AtomicBool,
+    finished: std::sync::mpsc::Receiver<()>,
 ) {
-    while !finished.load(Ordering::Relaxed) {
+    use std::sync::mpsc::RecvTimeoutError;
+    loop {
         let late = settings.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t);
         if late || stop.load(Ordering::Relaxed) {
             halt.store(true, Ordering::Relaxed);
             return;
         }
-        std::thread::sleep(std::time::Duration::from_millis(5));
+        let wait = finished.recv_timeout(std::time::Duration::from_millis(5));
+        if wait != Err(RecvTimeoutError::Timeout) {
+            return;
+        }
     }
 }
 
