@@ -64,8 +64,11 @@ impl Sums {
             }
             bad as u64
         };
-        let sums = self.sum.par_chunks_mut(ADD_CHUNK).zip(self.sum_sq.par_chunks_mut(ADD_CHUNK));
-        sums.zip(image.par_chunks(ADD_CHUNK))
+        // Runs handed out one at a time to whichever thread is free (`par_bridge`; see
+        // `integrator::frame::render_pixels_with`).
+        let sums = self.sum.chunks_mut(ADD_CHUNK).zip(self.sum_sq.chunks_mut(ADD_CHUNK));
+        sums.zip(image.chunks(ADD_CHUNK))
+            .par_bridge()
             .map(|((s, q), image)| {
                 let mut saturated = 0;
                 for ((s, q), p) in s.iter_mut().zip(q).zip(image) {

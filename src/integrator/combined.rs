@@ -453,24 +453,29 @@ fn counts(only: Option<Techniques>, t: Technique) -> bool {
 
 /// One pilot iteration's eye paths over `pixels` (`budget.rs`).
 fn pilot_walks(ctx: &Context, pixels: &[[u32; 2]]) -> Vec<PixelDone> {
-    pixels
-        .par_iter()
-        .with_max_len(8)
-        .map(|&[x, y]| {
-            let before = Work::here();
-            let eye = ctx.walk(x, y);
-            let after = Work::here();
-            let merged = budget::MERGES.iter().map(|&t| eye.tally[t as usize]).sum();
-            let (l, at) = eye.deep.unwrap_or((eye.value, after));
-            PixelDone {
-                value: eye.value,
-                merged,
-                deep: eye.value - l,
-                work: after - before,
-                deep_work: after - at,
-            }
-        })
-        .collect()
+    let walk = |[x, y]: [u32; 2]| {
+        let before = Work::here();
+        let eye = ctx.walk(x, y);
+        let after = Work::here();
+        let merged = budget::MERGES.iter().map(|&t| eye.tally[t as usize]).sum();
+        let (l, at) = eye.deep.unwrap_or((eye.value, after));
+        PixelDone {
+            value: eye.value,
+            merged,
+            deep: eye.value - l,
+            work: after - before,
+            deep_work: after - at,
+        }
+    };
+    // Runs of 8 pixels handed out one at a time to whichever thread is free (`par_bridge`, as
+    // `frame::render_pixels_with` does), each into its own slots.
+    let mut done: Vec<PixelDone> = pixels.iter().map(|_| PixelDone::default()).collect();
+    done.chunks_mut(8).zip(pixels.chunks(8)).par_bridge().for_each(|(out, run)| {
+        for (o, &p) in out.iter_mut().zip(run) {
+            *o = walk(p);
+        }
+    });
+    done
 }
 
 #[cfg(test)]

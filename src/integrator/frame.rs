@@ -158,13 +158,15 @@ pub(crate) fn render_pixels_with<T: Send + Default>(
     nonfinite: &AtomicU64,
     radiance: impl Fn(u32, u32) -> (Estimate, T) + Sync,
 ) -> bool {
-    // Runs of RUN pixels (a run may end in the next row) handed out one at a time: rayon would
-    // otherwise hand each thread a long stretch of the image at once, and where pixels differ in
-    // cost one thread can be left with the last long stretch while the others wait
-    // (cornell-fog's hybrid camera pass kept a second thread busy only 65 % of the time). The
-    // wait at the end of a pass is at most one run (there, about half a millisecond).
-    let runs = frame.value.par_chunks_mut(RUN).zip(frame.bias.par_chunks_mut(RUN));
-    let runs = runs.zip(extra.par_chunks_mut(RUN)).enumerate().with_max_len(1);
+    // Runs of RUN pixels (a run may end in the next row) handed out one at a time from one
+    // shared iterator (`par_bridge`), the next to whichever thread is free. Rayon's indexed
+    // split would hand each thread a stretch of runs that it splits only when another thread
+    // happens to steal from it, and where pixels differ in cost one thread can be left with the
+    // last stretch while the others sleep (cornell-fog's path tracer: passes of 0.23 s with up
+    // to 10 ms of a thread idle, timed run by run). The wait at the end of a pass is at most
+    // one run (there, about half a millisecond).
+    let runs = frame.value.chunks_mut(RUN).zip(frame.bias.chunks_mut(RUN));
+    let runs = runs.zip(extra.chunks_mut(RUN)).enumerate().par_bridge();
     runs.for_each(|(k, ((run, bias), more))| {
         if stop.load(Ordering::Relaxed) {
             return;

@@ -191,6 +191,7 @@ pub(super) type PhotonPassDone = (Work, u64, u64, f64);
 
 /// One pixel of a pilot iteration: its value, its merges' part, what the eye's vertices past
 /// its first merge added, the eye's work and that part of it.
+#[derive(Default)]
 pub(super) struct PixelDone {
     pub value: Rgb,
     pub merged: Rgb,
