@@ -81,8 +81,7 @@ impl CountingSort {
             parts.push((g, part, s));
             starts = s_tail;
         }
-        // Groups, of uneven sizes, handed out one at a time (`par_bridge`).
-        parts.into_iter().par_bridge().for_each(|(g, out, st)| {
+        parts.into_par_iter().with_max_len(1).for_each(|(g, out, st)| {
             let lo = g * per;
             // Group g's items, gathered from the work items in order.
             let pairs = || {
@@ -102,8 +101,8 @@ impl CountingSort {
         let items = keys.len().div_ceil(ITEMS);
         self.local.resize_with(items, Vec::new);
         self.local_start.resize_with(items, Vec::new);
-        let work = keys.chunks(ITEMS).zip(&mut self.local).zip(&mut self.local_start);
-        work.enumerate().par_bridge().for_each(|(k, ((keys, local), at))| {
+        let work = keys.par_chunks(ITEMS).zip(&mut self.local).zip(&mut self.local_start);
+        work.enumerate().with_max_len(1).for_each(|(k, ((keys, local), at))| {
             at.clear();
             at.resize(groups + 1, 0);
             at[groups] = keys.len() as u32;

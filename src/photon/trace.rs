@@ -135,7 +135,7 @@ fn concat<T: Copy + Default + Send + Sync>(
         parts.push((part, &src[..]));
         rest = tail;
     }
-    parts.into_iter().par_bridge().for_each(|(part, src)| part.copy_from_slice(src));
+    parts.into_par_iter().with_max_len(1).for_each(|(part, src)| part.copy_from_slice(src));
 }
 
 /// Russian roulette after an event that turned throughput `before` into `after`: survive with
@@ -713,10 +713,7 @@ pub(crate) fn trace_photons(
     let chunks = pass.paths.div_ceil(CHUNK) as usize;
     let mut items = std::mem::take(&mut out.items);
     items.resize_with(chunks, Photons::default);
-    // Work items handed out one at a time to whichever thread is free (`par_bridge`): light
-    // paths differ in length, and a thread must not be left with a stretch of them while the
-    // others sleep (`integrator::frame::render_pixels_with`).
-    let finished = items.iter_mut().enumerate().par_bridge().all(|(c, local)| {
+    let finished = items.par_iter_mut().enumerate().with_max_len(1).all(|(c, local)| {
         local.clear();
         let c = c as u64;
         let before = crate::work::Work::here();
