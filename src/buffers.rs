@@ -15,12 +15,13 @@ const PARALLEL_FROM: usize = 1 << 15;
 /// Makes room for `n` elements in `v`, whose contents are about to be overwritten: where its
 /// capacity is short, the buffer is freed and a larger one taken, so that growing never copies
 /// the old contents (a reallocation copies them on one thread: 5 MB in a pass of the beam map's
-/// entries). The new buffer has room for an eighth more, so that passes whose sizes vary a little
-/// do not reallocate every time.
+/// entries). The new buffer has room for an eighth more, and at least twice the old capacity (as
+/// `Vec` grows), so that passes whose sizes vary or grow do not reallocate every time.
 fn make_room<T>(v: &mut Vec<T>, n: usize) {
     if n > v.capacity() {
+        let room = (n + n / 8).max(2 * v.capacity());
         *v = Vec::new();
-        v.reserve_exact(n + n / 8);
+        v.reserve_exact(room);
     }
 }
 
@@ -49,8 +50,9 @@ pub(crate) fn fill<T: Clone + Send + Sync>(v: &mut Vec<T>, n: usize, value: T) {
     scratch(v, n, value);
 }
 
-/// Sets `v` to the items of `items`, written in parallel ([`IndexedParallelIterator::collect_into_vec`])
-/// into room made without copying `v`'s old contents ([`make_room`]).
+/// Sets `v` to the items of `items`, written in parallel
+/// ([`IndexedParallelIterator::collect_into_vec`]) into room made without copying `v`'s old
+/// contents ([`make_room`]).
 pub(crate) fn collect<T: Send>(v: &mut Vec<T>, items: impl IndexedParallelIterator<Item = T>) {
     v.clear();
     make_room(v, items.len());
@@ -84,6 +86,9 @@ mod tests {
             fill(&mut a, n, 3);
             assert_eq!(a, vec![3; n]);
             assert_eq!(filled(n, 4u32), vec![4; n]);
+            let mut a = old.clone();
+            collect(&mut a, (0..n as u32).into_par_iter().map(|i| i * 3));
+            assert_eq!(a, (0..n as u32).map(|i| i * 3).collect::<Vec<_>>());
         }
     }
 }

@@ -133,43 +133,8 @@ impl StepTimes {
 /// Pixels a camera pass hands out at a time.
 const RUN: usize = 128;
 
-/// The pixels of a frame in stretches of whole runs of [`RUN`] pixels, each a share of what is
-/// left — a (2 × threads)th, at least one run — so that the first stretches are long and the
-/// last are single runs (guided self-scheduling, Polychronopoulos & Kuck 1987): the first pixel's
-/// index and the stretch of values, bias estimates and extras.
-struct Stretches<'a, T> {
-    value: &'a mut [Rgb],
-    bias: &'a mut [Rgb],
-    extra: &'a mut [T],
-    /// Index of the first pixel left.
-    first: usize,
-    threads: usize,
-}
-
-impl<'a, T> Iterator for Stretches<'a, T> {
-    type Item = (usize, &'a mut [Rgb], &'a mut [Rgb], &'a mut [T]);
-
-    fn next(&mut self) -> Option<Self::Item> {
-        let left = self.value.len();
-        if left == 0 {
-            return None;
-        }
-        let runs = left.div_ceil(RUN) / (2 * self.threads);
-        let take = (runs.max(1) * RUN).min(left);
-        let (value, rest) = std::mem::take(&mut self.value).split_at_mut(take);
-        self.value = rest;
-        let (bias, rest) = std::mem::take(&mut self.bias).split_at_mut(take);
-        self.bias = rest;
-        let (extra, rest) = std::mem::take(&mut self.extra).split_at_mut(take);
-        self.extra = rest;
-        let first = self.first;
-        self.first += take;
-        Some((first, value, bias, extra))
-    }
-}
-
-/// Fills `frame` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over
-/// stretches of pixels.
+/// Fills `frame` (row-major, `width` pixels a row) with `radiance(x, y)` in parallel over runs
+/// of pixels.
 /// Non-finite samples (value or bias) become black without bias and are counted in `nonfinite`.
 /// Returns `false` if `stop` was raised before every pixel was done.
 pub(crate) fn render_pixels(
@@ -193,26 +158,27 @@ pub(crate) fn render_pixels_with<T: Send + Default>(
     nonfinite: &AtomicU64,
     radiance: impl Fn(u32, u32) -> (Estimate, T) + Sync,
 ) -> bool {
-    // Stretches of pixels handed out from one shared iterator (`par_bridge`), the next to
-    // whichever thread is free, largest first (`Stretches`). Rayon's indexed split (a range in
-    // halves, split further as threads steal) left threads asleep while another worked through
-    // a stretch: cornell-fog's path tracer, timed run by run, had a thread idle up to 10 ms in
-    // a pass of 0.23 s. Handing out runs of RUN pixels one at a time cured that but interleaves
-    // the threads' runs (cornell-box read about 2 % more processor time that way, paired against
-    // rayon's split, 1 % with these stretches: both within the pairs' noise); large stretches
-    // first keep each thread on a region of its own, and the wait at the end of a pass is still
-    // at most one run.
-    let threads = rayon::current_num_threads();
-    let stretches =
-        Stretches { value: &mut frame.value, bias: &mut frame.bias, extra, first: 0, threads };
-    stretches.par_bridge().for_each(|(first, run, bias, more)| {
+    // Runs of RUN pixels (a run may end in the next row) handed out one at a time from one
+    // shared iterator (`par_bridge`), the next to whichever thread is free. Rayon's indexed
+    // split (a range in halves, split further as threads steal) left threads asleep while
+    // another worked through a stretch: cornell-fog's path tracer, timed run by run, had a
+    // thread idle up to 10 ms in a pass of 0.23 s. Stretches of runs, largest first (guided
+    // self-scheduling), were tried and dropped: where the cost gathers in a part of the image
+    // (fire's flames) the first stretch held most of it, and fire's camera pass ran 91 % busy.
+    // The wait at the end of a pass is at most one run (there, about half a millisecond).
+    let runs = frame.value.chunks_mut(RUN).zip(frame.bias.chunks_mut(RUN));
+    let runs = runs.zip(extra.chunks_mut(RUN)).enumerate().par_bridge();
+    runs.for_each(|(k, ((run, bias), more))| {
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
         for (j, ((px, b), m)) in run.iter_mut().zip(bias).zip(more).enumerate() {
             // Pixel by pixel: in a pathological medium one pixel can take milliseconds, and a
             // stopped iteration is discarded anyway.
             if stop.load(Ordering::Relaxed) {
                 return;
             }
-            let p = first + j;
+            let p = k * RUN + j;
             let (e, own) = radiance((p % width) as u32, (p / width) as u32);
             (*px, *b, *m) = if e.value.is_finite() && e.bias.is_finite() {
                 (e.value, e.bias, own)

@@ -233,6 +233,19 @@ struct Census {
 }
 
 impl Census {
+    /// Nothing counted yet.
+    fn empty() -> Self {
+        Census {
+            lo: IVec3::MAX,
+            hi: IVec3::MIN,
+            voxels: 0,
+            max: 0.0,
+            bad: None,
+            stored: Default::default(),
+            last_brick: None,
+        }
+    }
+
     /// Counts one voxel (edge 1) or tile.
     fn add(&mut self, p: IVec3, edge: i32, v: f32) {
         self.lo = self.lo.min(p);
@@ -303,15 +316,7 @@ impl Sink for Census {
 /// it stores; refused if its values or its count are wrong.
 fn census(read: &ReadGrid, path: &Path, name: &str) -> Result<Census> {
     let err = |m: String| volume_error(path, m);
-    let mut c = Census {
-        lo: IVec3::MAX,
-        hi: IVec3::MIN,
-        voxels: 0,
-        max: 0.0,
-        bad: None,
-        stored: Default::default(),
-        last_brick: None,
-    };
+    let mut c = Census::empty();
     for_each_item(read, path, name, &mut c)?;
     if let Some(n) = read.expected {
         if n != c.voxels {
@@ -565,15 +570,7 @@ mod tests {
     }
 
     fn census_of(read: &ReadGrid, path: &Path, name: &str, whole: bool) -> Census {
-        let mut c = Census {
-            lo: IVec3::MAX,
-            hi: IVec3::MIN,
-            voxels: 0,
-            max: 0.0,
-            bad: None,
-            stored: Default::default(),
-            last_brick: None,
-        };
+        let mut c = Census::empty();
         let sink: &mut dyn Sink = if whole { &mut c } else { &mut ByVoxel(&mut c) };
         for_each_item(read, path, name, sink).unwrap();
         c
