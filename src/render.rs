@@ -119,9 +119,9 @@ fn render_resolved(
     std::thread::scope(|scope| {
         // The scene's fingerprint (SHA-256 over its grids: 6 ms on one thread for the cumulus)
         // is hashed on a thread of its own beside the first iteration, rather than before it
-        // with every other thread idle, where the render has more than one; its first use waits
-        // for it ([`Scene::fingerprint`]).
-        if rayon::current_num_threads() > 1 {
+        // with every other thread idle, where the render has more than one and the scene has
+        // not hashed it yet; its first use waits for it ([`Scene::fingerprint`]).
+        if rayon::current_num_threads() > 1 && scene.fingerprint.get().is_none() {
             scope.spawn(|| scene.fingerprint());
         }
         render_planned(scene, settings, &plan, start, progress, stop)
