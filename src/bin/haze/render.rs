@@ -6,7 +6,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 use haze::progress::Status;
 use haze::settings::Integrator;
-use haze::{Partial, RenderSettings, Start};
+use haze::{Image, Partial, RenderSettings, Start};
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -76,8 +76,8 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     let bar = progress_bar(args.quiet, &settings);
     // Every write of the outputs — snapshots and the last — in one place: the partial render if
     // asked for, then the image unless the output is a partial alone; a second signal waits.
-    let write = |part: &Partial, with_partial: bool| {
-        interrupt.writing(|| outs.write(part, with_partial, args.reference, args.exposure))
+    let write = |part: &Partial, image: Option<&Image>, with_partial: bool| {
+        interrupt.writing(|| outs.write(part, image, with_partial, args.reference, args.exposure))
     };
     let mut last_snapshot = Instant::now();
     let mut snapshot_error = None;
@@ -91,7 +91,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
                 last_snapshot = Instant::now();
                 let mut part = s.partial();
                 part.output = outs.recorded.clone();
-                if let Err(e) = write(&part, true) {
+                if let Err(e) = write(&part, None, true) {
                     snapshot_error.get_or_insert(e);
                 }
             }
@@ -117,9 +117,15 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         );
     }
     let keep_partial = ranged || args.snapshot_every.is_some() || interrupt.name().is_some();
-    // On the render's threads too: the image's layers and the EXR's compression are parallel.
-    let written = pool.install(|| write(&part, keep_partial))?;
-    eprintln!("{}", summary(&part, &settings, &written, ranged, interrupt.name()));
+    // On the render's threads too: the image's layers and the EXR's compression are parallel,
+    // and the summary's figures are worked out while the files are written (whose end waits on
+    // the disk).
+    let (written, figures) = pool.install(|| {
+        let image = part.image();
+        rayon::join(|| write(&part, Some(&image), keep_partial), || Figures::of(&image, &settings))
+    });
+    let written = written?;
+    eprintln!("{}", summary(&part, &settings, &written, ranged, interrupt.name(), &figures));
     if interrupt.name().is_some() {
         eprintln!("{}", resume_hint(&args, &settings, started, &outs.partial_path));
     }
@@ -160,11 +166,13 @@ struct Outputs {
 }
 
 impl Outputs {
-    /// Writes `part`: the partial render if `with_partial`, then the image (a reference for
-    /// `haze converge` if `reference`) unless the output is a partial alone. Returns the files.
+    /// Writes `part`: the partial render if `with_partial`, then its image — `image` if given
+    /// (made by [`Partial::image`]), a reference for `haze converge` if `reference` — unless the
+    /// output is a partial alone. Returns the files.
     fn write(
         &self,
         part: &Partial,
+        image: Option<&Image>,
         with_partial: bool,
         reference: bool,
         exposure: f32,
@@ -175,7 +183,14 @@ impl Outputs {
             written.push(self.partial_path.clone());
         }
         if !self.partial_only {
-            let image = part.image();
+            let made;
+            let image = match image {
+                Some(image) => image,
+                None => {
+                    made = part.image();
+                    &made
+                }
+            };
             written.extend(if reference {
                 image.write_reference(&self.output, exposure)?
             } else {
@@ -263,6 +278,33 @@ fn start_of(
     })
 }
 
+/// The figures of a render's last line that read every pixel of its image: the noise (from the
+/// variance layer), the kernel bias (from the bias layer) and, with a target error, the estimated
+/// error at the target's confidence.
+pub(crate) struct Figures {
+    noise: Option<f64>,
+    bias: Option<(f64, Option<f64>)>,
+    error: Option<haze::film::ErrorEstimate>,
+}
+
+impl Figures {
+    /// The figures of `image`, rendered with `settings`, each on a thread of its own where there
+    /// are threads to spare. The error estimate is [`haze::film::Film::error_estimate`]'s for
+    /// the film the image came from (the image keeps the layers it reads).
+    pub(crate) fn of(image: &Image, settings: &RenderSettings) -> Self {
+        let error = || {
+            settings.target_error.and_then(|_| {
+                image.error_estimate(settings.target_confidence, settings.target_region)
+            })
+        };
+        let ((noise, bias), error) = rayon::join(
+            || rayon::join(|| image.relative_noise(None), || image.relative_bias(None)),
+            error,
+        );
+        Self { noise, bias, error }
+    }
+}
+
 /// The line that ends a render: iterations, work, time, noise and bias, target, files written.
 fn summary(
     part: &Partial,
@@ -270,6 +312,7 @@ fn summary(
     written: &[PathBuf],
     ranged: bool,
     interrupted_by: Option<&str>,
+    figures: &Figures,
 ) -> String {
     let i = &part.info;
     let interrupted = interrupted_by.map(|n| format!(" (interrupted by {n})")).unwrap_or_default();
@@ -300,22 +343,18 @@ fn summary(
     };
     // The noise estimate of the image (its variance layer) and, for photon mapping, its
     // estimated kernel bias over the image (the bias layer's mean relative to the image's).
-    let image = part.image();
-    let noise = match image.relative_noise(None) {
+    let noise = match figures.noise {
         Some(n) => format!(", relative noise {:.2} %", 100.0 * n),
         None => String::new(),
     };
-    let noise = match image.relative_bias(None) {
+    let noise = match figures.bias {
         Some((b, Some(se))) => {
             format!("{noise}, kernel bias {:+.2} % ± {:.2} %", 100.0 * b, 100.0 * se)
         }
         Some((b, None)) => format!("{noise}, kernel bias {:+.2} %", 100.0 * b),
         None => noise,
     };
-    let noise = match (
-        settings.target_error,
-        part.film.error_estimate(settings.target_confidence, settings.target_region),
-    ) {
+    let noise = match (settings.target_error, figures.error) {
         (Some(target), Some(e)) => format!(
             "{noise} (error{} ≤ {:.2} % at {:.0} % confidence; target {:.2} %{})",
             settings

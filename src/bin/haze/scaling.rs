@@ -29,7 +29,7 @@ const PHASES: [&str; 10] = [
     "volume photon map",
     "camera pass",
     "adding to the film",
-    "writing EXR and PNG",
+    "writing EXR and PNG (and the last line's figures)",
     "whole run",
 ];
 
@@ -71,7 +71,11 @@ fn run_once(path: &Path, overrides: &Overrides, threads: usize) -> Result<Run> {
     let render = clock.lap();
     let clock = Stopwatch::start();
     let out = std::env::temp_dir().join(format!("haze-scaling-{}.exr", std::process::id()));
-    let written = pool.install(|| image.write(&out, 1.0))?;
+    // As `haze render` ends: the files written while the last line's figures are worked out.
+    let (written, _) = pool.install(|| {
+        rayon::join(|| image.write(&out, 1.0), || crate::render::Figures::of(&image, &settings))
+    });
+    let written = written?;
     for f in written {
         let _ = std::fs::remove_file(f);
     }
