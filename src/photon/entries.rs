@@ -12,12 +12,18 @@ pub(super) type Span = (IVec3, IVec3);
 /// The empty span.
 pub(super) const NO_SPAN: Span = (IVec3::ONE, IVec3::ZERO);
 
-/// Most bands of z-slices filled in parallel (fewer where the grid has fewer slices): enough for
-/// several per thread on large machines. Each band reads only the photons that reach it, so more
-/// bands cost little; the entries do not depend on the number of bands.
+/// Bands of rows (a row: the buckets of one y and z) filled in parallel: at least this many, and
+/// [`BANDS_PER_THREAD`] per thread on larger machines (fewer where the grid has fewer rows). Each
+/// band reads only the photons that reach it, so more bands cost little; the entries do not
+/// depend on the number of bands.
 const BANDS: usize = 64;
-/// Photons per work item when they are listed by the bands they reach.
-const LIST_CHUNK: usize = 1 << 14;
+/// Bands per thread: photons gather unevenly, so a thread needs several bands to even out.
+const BANDS_PER_THREAD: usize = 8;
+/// Photon lists by band made in parallel: [`LISTS_PER_THREAD`] per thread, of at least
+/// [`LIST_MIN`] photons each (a band reads every list, so lists are not made smaller). The
+/// entries do not depend on the number of lists.
+const LISTS_PER_THREAD: usize = 8;
+const LIST_MIN: usize = 1 << 11;
 
 /// Photon entries grouped by bucket (a grid cell or a view bin): `start[b]..start[b + 1]` are
 /// bucket b's entries, each the photon's position (read by every test) and its index.
@@ -62,18 +68,56 @@ impl Lanes {
     }
 }
 
-/// Calls `f(bucket)` for every bucket of `span` that lies in the z-slices `z0..=z1` of a grid of
-/// `dims` numbered x-fastest.
+/// The rows `r0..=r1` of a grid (row y + dims.y·z holds the buckets of that y and z), the
+/// z-slices `z0..=z1` they lie in, and whether they are those slices whole.
+#[derive(Clone, Copy)]
+struct Rows {
+    r0: i32,
+    r1: i32,
+    z0: i32,
+    z1: i32,
+    whole: bool,
+}
+
+/// Calls `f(bucket)` for every bucket of `span` that lies in `rows` of a grid of `dims` numbered
+/// x-fastest.
 #[inline(always)]
-fn each_in_slices(span: &Span, dims: IVec3, z0: i32, z1: i32, mut f: impl FnMut(usize)) {
+fn each_in_rows(span: &Span, dims: IVec3, rows: Rows, mut f: impl FnMut(usize)) {
     let (a, b) = span;
+    let Rows { r0, r1, z0, z1, whole } = rows;
     for z in a.z.max(z0)..=b.z.min(z1) {
-        for y in a.y..=b.y {
-            let row = (dims.x * (y + dims.y * z)) as usize;
+        let first = dims.y * z;
+        let (y0, y1) = if whole { (a.y, b.y) } else { (a.y.max(r0 - first), b.y.min(r1 - first)) };
+        for y in y0..=y1 {
+            let row = (dims.x * (first + y)) as usize;
             for x in a.x..=b.x {
                 f(row + x as usize);
             }
         }
+    }
+}
+
+/// Calls `f(k)` for every band k of `rows` rows of a grid of `dims` that `span` reaches, in
+/// order: the bands of its rows, which are consecutive where the bands are whole z-slices, the
+/// span covers every y or it lies in one z-slice, else in each of its z-slices those of its rows
+/// there.
+#[inline(always)]
+fn each_band(span: &Span, dims: IVec3, (rows, whole): (usize, bool), mut f: impl FnMut(usize)) {
+    let (a, b) = span;
+    if a.x > b.x || a.y > b.y || a.z > b.z {
+        return;
+    }
+    let rows = rows as u32;
+    let band = |y: i32, z: i32| (y + dims.y * z) as u32 / rows;
+    if whole || b.y - a.y + 1 == dims.y || a.z == b.z {
+        (band(a.y, a.z)..=band(b.y, b.z)).for_each(|k| f(k as usize));
+        return;
+    }
+    let mut next = 0;
+    for z in a.z..=b.z {
+        let (k0, k1) = (band(a.y, z), band(b.y, z));
+        (k0.max(next)..=k1).for_each(|k| f(k as usize));
+        next = k1 + 1;
     }
 }
 
@@ -96,28 +140,40 @@ pub(super) fn distance2(v: Vec3, d: Vec3) -> (f32, f32) {
 impl Entries {
     /// Fills the buckets, a grid of `dims` numbered x-fastest, by a counting sort: photon i
     /// enters every bucket of `spans[i]`. Each bucket lists its photons in index order, so the
-    /// result does not depend on the thread count. Bands of z-slices are counted and scattered in
+    /// result does not depend on the thread count. Bands of rows are counted and scattered in
     /// parallel, each reading the photons that reach it (listed first, in parallel).
     pub(super) fn fill(&mut self, dims: IVec3, photons: &[VolumePhoton], spans: &[Span]) {
-        let slab = (dims.x * dims.y) as usize;
-        let buckets = slab * dims.z as usize;
-        let slices = (dims.z as usize).div_ceil(BANDS);
-        let band = slab * slices;
-        let bands = (dims.z as usize).div_ceil(slices);
-        self.list_by_band(spans, slices, bands);
+        let all_rows = (dims.y * dims.z) as usize;
+        let buckets = dims.x as usize * all_rows;
+        // Whole z-slices (up to BANDS bands of them) where there are slices enough for
+        // BANDS_PER_THREAD per thread, else rows.
+        let (slices, y) = (dims.z as usize, dims.y as usize);
+        let want = BANDS_PER_THREAD * rayon::current_num_threads();
+        let rows = if slices >= want {
+            y * slices.div_ceil(BANDS)
+        } else {
+            all_rows.div_ceil(want.max(BANDS))
+        };
+        let whole = rows % y == 0;
+        let band = dims.x as usize * rows;
+        let bands = all_rows.div_ceil(rows);
+        self.list_by_band(spans, dims, (rows, whole), bands);
         let by_band = &self.by_band;
         // The photons that reach band k, in index order.
         let reaching = move |k: usize| {
             by_band.iter().flat_map(move |(list, at)| &list[at[k] as usize..at[k + 1] as usize])
         };
-        let slices_of = |k: usize| ((k * slices) as i32, ((k + 1) * slices) as i32 - 1);
+        let rows_of = |k: usize| {
+            let (r0, r1) = ((k * rows) as i32, ((k + 1) * rows) as i32 - 1);
+            Rows { r0, r1, z0: r0 / dims.y, z1: r1 / dims.y, whole }
+        };
         crate::buffers::fill(&mut self.start, buckets + 1, 0);
         // Bands, of uneven photon counts, are handed out one at a time to whichever thread is
         // free (`par_bridge`; `integrator::frame::render_pixels_with` says why).
         self.start[1..].chunks_mut(band).enumerate().par_bridge().for_each(|(k, count)| {
-            let (z0, z1) = slices_of(k);
+            let rows = rows_of(k);
             for &i in reaching(k) {
-                each_in_slices(&spans[i as usize], dims, z0, z1, |b| count[b - k * band] += 1);
+                each_in_rows(&spans[i as usize], dims, rows, |b| count[b - k * band] += 1);
             }
         });
         // The counts' running sum, band by band in parallel from each band's offset (up to four
@@ -146,9 +202,9 @@ impl Entries {
             let lo = k * band;
             let hi = (lo + band).min(buckets);
             let mut cursor: Vec<u32> = start[lo..hi].iter().map(|&s| s - start[lo]).collect();
-            let (z0, z1) = slices_of(k);
+            let rows = rows_of(k);
             for &i in reaching(k) {
-                each_in_slices(&spans[i as usize], dims, z0, z1, |b| {
+                each_in_rows(&spans[i as usize], dims, rows, |b| {
                     let c = &mut cursor[b - lo];
                     out[*c as usize] = i;
                     *c += 1;
@@ -174,21 +230,18 @@ impl Entries {
             });
     }
 
-    /// Lists, per work item of [`LIST_CHUNK`] photons, the photons that reach each of `bands`
-    /// bands of `slices` z-slices (in index order), in parallel.
-    fn list_by_band(&mut self, spans: &[Span], slices: usize, bands: usize) {
-        let reach = |(a, b): &Span| {
-            (a.z <= b.z).then(|| {
-                (a.z.max(0) as usize / slices, (b.z.max(0) as usize / slices).min(bands - 1))
-            })
-        };
-        self.by_band.resize_with(spans.len().div_ceil(LIST_CHUNK), Default::default);
-        let work = spans.chunks(LIST_CHUNK).zip(&mut self.by_band).enumerate();
+    /// Lists, per work item of photons, the photons that reach each of `bands` bands of `rows`
+    /// rows of a grid of `dims` (in index order), in parallel.
+    fn list_by_band(&mut self, spans: &[Span], dims: IVec3, rows: (usize, bool), bands: usize) {
+        let chunk =
+            spans.len().div_ceil(LISTS_PER_THREAD * rayon::current_num_threads()).max(LIST_MIN);
+        self.by_band.resize_with(spans.len().div_ceil(chunk), Default::default);
+        let work = spans.chunks(chunk).zip(&mut self.by_band).enumerate();
         work.par_bridge().for_each(|(c, (spans, (list, at)))| {
             at.clear();
             at.resize(bands + 1, 0);
-            for (k0, k1) in spans.iter().filter_map(reach) {
-                (k0..=k1).for_each(|k| at[k + 1] += 1);
+            for span in spans {
+                each_band(span, dims, rows, |k| at[k + 1] += 1);
             }
             for k in 0..bands {
                 at[k + 1] += at[k];
@@ -196,11 +249,10 @@ impl Entries {
             list.resize(at[bands] as usize, 0);
             let mut cursor = at[..bands].to_vec();
             for (j, span) in spans.iter().enumerate() {
-                let Some((k0, k1)) = reach(span) else { continue };
-                for k in k0..=k1 {
-                    list[cursor[k] as usize] = (c * LIST_CHUNK + j) as u32;
+                each_band(span, dims, rows, |k| {
+                    list[cursor[k] as usize] = (c * chunk + j) as u32;
                     cursor[k] += 1;
-                }
+                });
             }
         });
     }
@@ -254,6 +306,58 @@ impl Entries {
 mod tests {
     use super::*;
     use crate::rng::{Purpose, Sampler};
+
+    /// The entries list, bucket by bucket, exactly the photons whose span covers the bucket, in
+    /// index order, whatever the number of threads (which sets the bands and lists): grids
+    /// with many z-slices (bands of whole slices), few (bands of rows) and one row per slice
+    /// (the view bins' layout), with spans of every shape, empty ones and the whole grid.
+    #[test]
+    fn buckets_list_their_photons_in_order_on_any_thread_count() {
+        let mut s = Sampler::new(11, Purpose::Other, 0, 0);
+        for dims in [IVec3::new(5, 7, 90), IVec3::new(6, 9, 3), IVec3::new(40, 1, 30)] {
+            let n = 5000;
+            let photons: Vec<VolumePhoton> = (0..n)
+                .map(|_| VolumePhoton {
+                    p: Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()),
+                    ..Default::default()
+                })
+                .collect();
+            let mut coord = |axis: usize| (s.next_f32() * dims[axis] as f32) as i32;
+            let spans: Vec<Span> = (0..n)
+                .map(|i| match i % 50 {
+                    0 => NO_SPAN,
+                    1 => (IVec3::ZERO, dims - 1),
+                    _ => {
+                        let a = IVec3::new(coord(0), coord(1), coord(2));
+                        let b = IVec3::new(coord(0), coord(1), coord(2));
+                        // Mostly small spans, some long ones along each axis.
+                        let reach = IVec3::new(i % 3, i % 4, i % 5);
+                        (a.min(b), a.min(b) + (a.max(b) - a.min(b)).min(reach))
+                    }
+                })
+                .collect();
+            let (mut start, mut idx) = (vec![0u32], Vec::new());
+            for z in 0..dims.z {
+                for y in 0..dims.y {
+                    for x in 0..dims.x {
+                        let c = IVec3::new(x, y, z);
+                        let inside = |(a, b): &Span| c.cmpge(*a).all() && c.cmple(*b).all();
+                        idx.extend((0..n as u32).filter(|&i| inside(&spans[i as usize])));
+                        start.push(idx.len() as u32);
+                    }
+                }
+            }
+            for threads in [1, 2, 5, 16, 64] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let mut entries = Entries::default();
+                pool.install(|| entries.fill(dims, &photons, &spans));
+                assert_eq!(entries.start, start, "dims {dims}, {threads} threads");
+                assert_eq!(entries.idx, idx, "dims {dims}, {threads} threads");
+                let x: Vec<f32> = idx.iter().map(|&i| photons[i as usize].p.x).collect();
+                assert_eq!(entries.x, x, "dims {dims}, {threads} threads");
+            }
+        }
+    }
 
     /// Photons at distance 0.004 from rays with f32-normalised directions, 3 units along them:
     /// `distance2` gives d² to 10⁻³ of r² (the f32 rounding of the point itself is ~10⁻⁴ of r²),
