@@ -203,8 +203,8 @@ impl PhotonMapper {
             VolumeEstimate::Point => self.volume_points.origin(slot),
         };
         // The gathered slots' paths and tallies, found in parallel and kept in slot order
-        // (surface slots, then volume slots), then added up in that order on one thread: the
-        // sums of the serial loop over every slot, bit for bit.
+        // (surface slots, then volume slots), then added up in that order: the sums of the
+        // serial loop over every slot, bit for bit.
         let gathered = |tally: &Tally, path: &(dyn Fn(usize) -> u32 + Sync)| {
             (0..tally.len())
                 .into_par_iter()
@@ -218,16 +218,22 @@ impl PhotonMapper {
         let surface =
             gathered(&marks.surface, &|slot| photons.surface_path[self.surface_map.origin(slot)]);
         let volume = gathered(&marks.volume, &|slot| photons.volume_path[volume_origin(slot)]);
-        let mut value = vec![0.0f32; photons.paths.len()];
-        for (path, v) in surface.into_iter().chain(volume) {
-            value[(path as u64 - first) as usize] += v;
-        }
-        photons
-            .paths
-            .iter()
-            .zip(&value)
-            .map(|(&(light, u), &value)| PilotPath { light, u, value })
-            .collect()
+        // Each thread adds up the tallies of its own range of paths, reading every slot in
+        // order (a path's sum in the same order as on one thread).
+        let mut value = crate::buffers::filled(photons.paths.len(), 0.0f32);
+        let per = value.len().div_ceil(rayon::current_num_threads()).max(1 << 12);
+        value.par_chunks_mut(per).enumerate().for_each(|(k, part)| {
+            let lo = first + (k * per) as u64;
+            for &(path, v) in surface.iter().chain(&volume) {
+                if let Some(x) =
+                    (path as u64).checked_sub(lo).and_then(|j| part.get_mut(j as usize))
+                {
+                    *x += v;
+                }
+            }
+        });
+        let paths = photons.paths.par_iter().zip(&value);
+        paths.map(|(&(light, u), &value)| PilotPath { light, u, value }).collect()
     }
 
     /// Builds the maps of the photons in hand at iteration 1's radii (`iteration` keys their
