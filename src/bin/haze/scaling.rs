@@ -160,13 +160,17 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
     let empty = Run { wall: [f64::INFINITY; PHASES.len()], processor: [0.0; PHASES.len()] };
     let (mut one, mut many) = (empty, empty);
     let mut stolen = 0.0;
+    // The steal during the fastest `n`-thread whole run, the one the table's last row reports.
+    let mut stolen_from_best = None;
     for round in 1..=rounds {
         for (threads, best) in [(1, &mut one), (n, &mut many)] {
             eprintln!("round {round}/{rounds}: {threads} thread(s)");
             let before = stolen_seconds();
             let t = run_once(path, overrides, threads)?;
-            if let (Some(a), Some(b)) = (before, stolen_seconds()) {
-                stolen += b - a;
+            let steal = before.zip(stolen_seconds()).map(|(a, b)| b - a);
+            stolen += steal.unwrap_or(0.0);
+            if threads == n && t.wall[PHASES.len() - 1] < best.wall[PHASES.len() - 1] {
+                stolen_from_best = steal;
             }
             for i in 0..PHASES.len() {
                 if t.wall[i] < best.wall[i] {
@@ -193,6 +197,20 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
         println!(
             "The host took {stolen:.2} s of processor time from this machine during these runs \
              (steal in /proc/stat): wall-clock times and \"waiting\" include it."
+        );
+    }
+    let last = PHASES.len() - 1;
+    if let (Some(steal), Some(p)) =
+        (stolen_from_best, Phase::new(one.wall[last], many.wall[last], many.processor[last], n))
+    {
+        // The host's steal was idle time to the process, but not haze's waiting.
+        let idle = (n as f64 * many.wall[last] - many.processor[last] - steal).max(0.0);
+        let waiting = idle / (many.processor[last] + steal) / (n as f64 - 1.0);
+        println!(
+            "The whole {n}-thread run of the table (the fastest) lost {steal:.2} s to the host (in \
+             steps of 0.01 s); its waiting without that time: {:.1} % (with it: {:.1} %).",
+            100.0 * waiting,
+            100.0 * p.waiting
         );
     }
     Ok(())
