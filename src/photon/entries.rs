@@ -97,6 +97,20 @@ fn each_in_rows(span: &Span, dims: IVec3, rows: Rows, mut f: impl FnMut(usize)) 
     }
 }
 
+/// The rows of a band of a grid of `dims`, and whether they are whole z-slices: whole slices (up
+/// to [`BANDS`] bands of them) where there are slices enough for [`BANDS_PER_THREAD`] per thread,
+/// else rows, [`BANDS`] bands or [`BANDS_PER_THREAD`] per thread.
+fn band_rows(dims: IVec3) -> (usize, bool) {
+    let (y, slices) = (dims.y as usize, dims.z as usize);
+    let want = BANDS_PER_THREAD * rayon::current_num_threads();
+    let rows = if slices >= want {
+        y * slices.div_ceil(BANDS)
+    } else {
+        (y * slices).div_ceil(want.max(BANDS))
+    };
+    (rows, rows % y == 0)
+}
+
 /// Calls `f(k)` for every band k of `rows` rows of a grid of `dims` that `span` reaches, in
 /// order: the bands of its rows, which are consecutive where the bands are whole z-slices, the
 /// span covers every y or it lies in one z-slice, else in each of its z-slices those of its rows
@@ -143,20 +157,10 @@ impl Entries {
     /// result does not depend on the thread count. Bands of rows are counted and scattered in
     /// parallel, each reading the photons that reach it (listed first, in parallel).
     pub(super) fn fill(&mut self, dims: IVec3, photons: &[VolumePhoton], spans: &[Span]) {
-        let all_rows = (dims.y * dims.z) as usize;
-        let buckets = dims.x as usize * all_rows;
-        // Whole z-slices (up to BANDS bands of them) where there are slices enough for
-        // BANDS_PER_THREAD per thread, else rows.
-        let (slices, y) = (dims.z as usize, dims.y as usize);
-        let want = BANDS_PER_THREAD * rayon::current_num_threads();
-        let rows = if slices >= want {
-            y * slices.div_ceil(BANDS)
-        } else {
-            all_rows.div_ceil(want.max(BANDS))
-        };
-        let whole = rows % y == 0;
+        let buckets = dims.element_product() as usize;
+        let (rows, whole) = band_rows(dims);
         let band = dims.x as usize * rows;
-        let bands = all_rows.div_ceil(rows);
+        let bands = ((dims.y * dims.z) as usize).div_ceil(rows);
         self.list_by_band(spans, dims, (rows, whole), bands);
         let by_band = &self.by_band;
         // The photons that reach band k, in index order.

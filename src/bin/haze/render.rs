@@ -106,15 +106,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
         eprintln!("warning: a snapshot could not be written: {e}");
     }
     if part.info.iterations == 0 {
-        if let (Some(name), Some(code)) = (interrupt.name(), interrupt.exit_code()) {
-            eprintln!("error: {name} before the first iteration finished; nothing written");
-            return Ok(code);
-        }
-        bail!(
-            "the time limit ({} s) ended before the first iteration finished; nothing written \
-             (allow more time, or lower the photons or the resolution)",
-            settings.time_limit.unwrap_or(0.0)
-        );
+        return nothing_rendered(&interrupt, &settings);
     }
     let keep_partial = ranged || args.snapshot_every.is_some() || interrupt.name().is_some();
     // On the render's threads too: the image's layers and the EXR's compression are parallel,
@@ -131,6 +123,20 @@ pub(crate) fn run(args: RenderArgs) -> Result<ExitCode> {
     }
     warn_about(&part.info);
     Ok(interrupt.exit_code().unwrap_or(ExitCode::SUCCESS))
+}
+
+/// The end of a render stopped before its first iteration finished: by a signal (its exit code)
+/// or by the time limit (an error).
+fn nothing_rendered(interrupt: &Interrupt, settings: &RenderSettings) -> Result<ExitCode> {
+    if let (Some(name), Some(code)) = (interrupt.name(), interrupt.exit_code()) {
+        eprintln!("error: {name} before the first iteration finished; nothing written");
+        return Ok(code);
+    }
+    bail!(
+        "the time limit ({} s) ended before the first iteration finished; nothing written \
+         (allow more time, or lower the photons or the resolution)",
+        settings.time_limit.unwrap_or(0.0)
+    );
 }
 
 /// The settings of a render: the scene's, or for a resume its partial's (with the scene's goal
