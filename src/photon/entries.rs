@@ -12,17 +12,18 @@ pub(super) type Span = (IVec3, IVec3);
 /// The empty span.
 pub(super) const NO_SPAN: Span = (IVec3::ONE, IVec3::ZERO);
 
-/// Bands of rows (a row: the buckets of one y and z) filled in parallel: at least this many, and
-/// [`BANDS_PER_THREAD`] per thread on larger machines (fewer where the grid has fewer rows). Each
-/// band reads only the photons that reach it, so more bands cost little; the entries do not
-/// depend on the number of bands.
+/// Bands filled in parallel: up to this many bands of whole z-slices where a grid has
+/// [`BANDS_PER_THREAD`] slices per thread, else bands of rows (a row: the buckets of one y and z),
+/// this many or [`BANDS_PER_THREAD`] per thread, whichever is more (fewer where the grid has
+/// fewer rows). Each band reads only the photons that reach it, so more bands cost little; the
+/// entries do not depend on the number of bands.
 const BANDS: usize = 64;
 /// Bands per thread: photons gather unevenly, so a thread needs several bands to even out.
 const BANDS_PER_THREAD: usize = 8;
-/// Photon lists by band made in parallel: [`LISTS_PER_THREAD`] per thread, of at least
-/// [`LIST_MIN`] photons each (a band reads every list, so lists are not made smaller). The
-/// entries do not depend on the number of lists.
+/// Photon lists by band made in parallel: this many per thread …
 const LISTS_PER_THREAD: usize = 8;
+/// … of at least this many photons each (a band reads every list, so lists are not made
+/// smaller). The entries do not depend on the number of lists.
 const LIST_MIN: usize = 1 << 11;
 
 /// Photon entries grouped by bucket (a grid cell or a view bin): `start[b]..start[b + 1]` are
