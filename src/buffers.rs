@@ -4,7 +4,8 @@
 //! iteration or at the start of every render (cumulus's beam map spent 0.11 s of 0.56 s resizing
 //! on one thread of two). These write the new elements from every thread of the pool, and a
 //! buffer that outgrows its capacity is replaced rather than reallocated where its contents are
-//! to be overwritten (a reallocation copies them, on one thread).
+//! to be overwritten (a reallocation copies them, on one thread). [`piece`] sizes the pieces work
+//! in parallel is cut into.
 
 use rayon::prelude::*;
 
@@ -57,6 +58,14 @@ pub(crate) fn collect<T: Send>(v: &mut Vec<T>, items: impl IndexedParallelIterat
     v.clear();
     make_room(v, items.len());
     items.collect_into_vec(v);
+}
+
+/// The length of the pieces that `n` items are cut into to be worked on in parallel: about
+/// `per_thread` pieces for each thread of the current pool, of at least `min` items (the last
+/// piece perhaps shorter). A fixed length caps the threads that can share the work (16 384
+/// photons a piece cut cornell-fog's 112 000 volume photons into 7).
+pub(crate) fn piece(n: usize, per_thread: usize, min: usize) -> usize {
+    n.div_ceil(per_thread * rayon::current_num_threads()).max(min)
 }
 
 /// A vector of `n` copies of `value`, written in parallel.

@@ -221,7 +221,7 @@ impl PhotonMapper {
         // Each thread adds up the tallies of its own range of paths, reading every slot in
         // order (a path's sum in the same order as on one thread).
         let mut value = crate::buffers::filled(photons.paths.len(), 0.0f32);
-        let per = value.len().div_ceil(rayon::current_num_threads()).max(1 << 12);
+        let per = crate::buffers::piece(value.len(), 1, 1 << 12);
         value.par_chunks_mut(per).enumerate().for_each(|(k, part)| {
             let lo = first + (k * per) as u64;
             for &(path, v) in surface.iter().chain(&volume) {

@@ -98,41 +98,60 @@ fn each_in_rows(span: &Span, dims: IVec3, rows: Rows, mut f: impl FnMut(usize)) 
     }
 }
 
-/// The rows of a band of a grid of `dims`, and whether they are whole z-slices: whole slices (up
-/// to [`BANDS`] bands of them) where there are slices enough for [`BANDS_PER_THREAD`] per thread,
-/// else rows, [`BANDS`] bands or [`BANDS_PER_THREAD`] per thread.
-fn band_rows(dims: IVec3) -> (usize, bool) {
-    let (y, slices) = (dims.y as usize, dims.z as usize);
-    let want = BANDS_PER_THREAD * rayon::current_num_threads();
-    let rows = if slices >= want {
-        y * slices.div_ceil(BANDS)
-    } else {
-        (y * slices).div_ceil(want.max(BANDS))
-    };
-    (rows, rows % y == 0)
+/// How a grid of `dims` is cut into bands: `count` bands of `rows` rows each (the last perhaps
+/// fewer), whole z-slices (up to [`BANDS`] bands of them) where there are slices enough for
+/// [`BANDS_PER_THREAD`] per thread, else rows, [`BANDS`] bands or [`BANDS_PER_THREAD`] per thread.
+struct Bands {
+    dims: IVec3,
+    rows: usize,
+    whole: bool,
+    count: usize,
 }
 
-/// Calls `f(k)` for every band k of `rows` rows of a grid of `dims` that `span` reaches, in
-/// order: the bands of its rows, which are consecutive where the bands are whole z-slices, the
-/// span covers every y or it lies in one z-slice, else in each of its z-slices those of its rows
-/// there.
-#[inline(always)]
-fn each_band(span: &Span, dims: IVec3, (rows, whole): (usize, bool), mut f: impl FnMut(usize)) {
-    let (a, b) = span;
-    if a.x > b.x || a.y > b.y || a.z > b.z {
-        return;
+impl Bands {
+    fn new(dims: IVec3) -> Self {
+        let (y, slices) = (dims.y as usize, dims.z as usize);
+        let want = BANDS_PER_THREAD * rayon::current_num_threads();
+        let rows = if slices >= want {
+            y * slices.div_ceil(BANDS)
+        } else {
+            (y * slices).div_ceil(want.max(BANDS))
+        };
+        Bands { dims, rows, whole: rows % y == 0, count: (y * slices).div_ceil(rows) }
     }
-    let rows = rows as u32;
-    let band = |y: i32, z: i32| (y + dims.y * z) as u32 / rows;
-    if whole || b.y - a.y + 1 == dims.y || a.z == b.z {
-        (band(a.y, a.z)..=band(b.y, b.z)).for_each(|k| f(k as usize));
-        return;
+
+    /// Buckets in a band (the last perhaps fewer).
+    fn buckets(&self) -> usize {
+        self.dims.x as usize * self.rows
     }
-    let mut next = 0;
-    for z in a.z..=b.z {
-        let (k0, k1) = (band(a.y, z), band(b.y, z));
-        (k0.max(next)..=k1).for_each(|k| f(k as usize));
-        next = k1 + 1;
+
+    /// The rows of band `k`.
+    fn of(&self, k: usize) -> Rows {
+        let (r0, r1) = ((k * self.rows) as i32, ((k + 1) * self.rows) as i32 - 1);
+        Rows { r0, r1, z0: r0 / self.dims.y, z1: r1 / self.dims.y, whole: self.whole }
+    }
+
+    /// Calls `f(k)` for every band k that `span` reaches, in order: the bands of its rows, which
+    /// are consecutive where the bands are whole z-slices, the span covers every y or it lies in
+    /// one z-slice, else in each of its z-slices those of its rows there.
+    #[inline(always)]
+    fn each(&self, span: &Span, mut f: impl FnMut(usize)) {
+        let (a, b) = span;
+        if a.x > b.x || a.y > b.y || a.z > b.z {
+            return;
+        }
+        let (rows, dims) = (self.rows as u32, self.dims);
+        let band = |y: i32, z: i32| (y + dims.y * z) as u32 / rows;
+        if self.whole || b.y - a.y + 1 == dims.y || a.z == b.z {
+            (band(a.y, a.z)..=band(b.y, b.z)).for_each(|k| f(k as usize));
+            return;
+        }
+        let mut next = 0;
+        for z in a.z..=b.z {
+            let (k0, k1) = (band(a.y, z), band(b.y, z));
+            (k0.max(next)..=k1).for_each(|k| f(k as usize));
+            next = k1 + 1;
+        }
     }
 }
 
@@ -159,24 +178,19 @@ impl Entries {
     /// parallel, each reading the photons that reach it (listed first, in parallel).
     pub(super) fn fill(&mut self, dims: IVec3, photons: &[VolumePhoton], spans: &[Span]) {
         let buckets = dims.element_product() as usize;
-        let (rows, whole) = band_rows(dims);
-        let band = dims.x as usize * rows;
-        let bands = ((dims.y * dims.z) as usize).div_ceil(rows);
-        self.list_by_band(spans, dims, (rows, whole), bands);
+        let bands = Bands::new(dims);
+        let band = bands.buckets();
+        self.list_by_band(spans, &bands);
         let by_band = &self.by_band;
         // The photons that reach band k, in index order.
         let reaching = move |k: usize| {
             by_band.iter().flat_map(move |(list, at)| &list[at[k] as usize..at[k + 1] as usize])
         };
-        let rows_of = |k: usize| {
-            let (r0, r1) = ((k * rows) as i32, ((k + 1) * rows) as i32 - 1);
-            Rows { r0, r1, z0: r0 / dims.y, z1: r1 / dims.y, whole }
-        };
         crate::buffers::fill(&mut self.start, buckets + 1, 0);
         // Bands, of uneven photon counts, are handed out one at a time to whichever thread is
         // free (`par_bridge`; `integrator::frame::render_pixels_with` says why).
         self.start[1..].chunks_mut(band).enumerate().par_bridge().for_each(|(k, count)| {
-            let rows = rows_of(k);
+            let rows = bands.of(k);
             for &i in reaching(k) {
                 each_in_rows(&spans[i as usize], dims, rows, |b| count[b - k * band] += 1);
             }
@@ -194,9 +208,9 @@ impl Entries {
         });
         // Scatter the photon indices, each band into its own part of the entries.
         crate::buffers::scratch(&mut self.idx, self.start[buckets] as usize, 0);
-        let mut parts = Vec::with_capacity(bands);
+        let mut parts = Vec::with_capacity(bands.count);
         let mut rest = &mut self.idx[..];
-        for k in 0..bands {
+        for k in 0..bands.count {
             let (lo, hi) = (k * band, ((k + 1) * band).min(buckets));
             let (part, tail) = rest.split_at_mut((self.start[hi] - self.start[lo]) as usize);
             parts.push((k, part));
@@ -207,7 +221,7 @@ impl Entries {
             let lo = k * band;
             let hi = (lo + band).min(buckets);
             let mut cursor: Vec<u32> = start[lo..hi].iter().map(|&s| s - start[lo]).collect();
-            let rows = rows_of(k);
+            let rows = bands.of(k);
             for &i in reaching(k) {
                 each_in_rows(&spans[i as usize], dims, rows, |b| {
                     let c = &mut cursor[b - lo];
@@ -235,26 +249,25 @@ impl Entries {
             });
     }
 
-    /// Lists, per work item of photons, the photons that reach each of `bands` bands of `rows`
-    /// rows of a grid of `dims` (in index order), in parallel.
-    fn list_by_band(&mut self, spans: &[Span], dims: IVec3, rows: (usize, bool), bands: usize) {
-        let chunk =
-            spans.len().div_ceil(LISTS_PER_THREAD * rayon::current_num_threads()).max(LIST_MIN);
+    /// Lists, per work item of photons, the photons that reach each of `bands` (in index order),
+    /// in parallel.
+    fn list_by_band(&mut self, spans: &[Span], bands: &Bands) {
+        let chunk = crate::buffers::piece(spans.len(), LISTS_PER_THREAD, LIST_MIN);
         self.by_band.resize_with(spans.len().div_ceil(chunk), Default::default);
         let work = spans.chunks(chunk).zip(&mut self.by_band).enumerate();
         work.par_bridge().for_each(|(c, (spans, (list, at)))| {
             at.clear();
-            at.resize(bands + 1, 0);
+            at.resize(bands.count + 1, 0);
             for span in spans {
-                each_band(span, dims, rows, |k| at[k + 1] += 1);
+                bands.each(span, |k| at[k + 1] += 1);
             }
-            for k in 0..bands {
+            for k in 0..bands.count {
                 at[k + 1] += at[k];
             }
-            list.resize(at[bands] as usize, 0);
-            let mut cursor = at[..bands].to_vec();
+            list.resize(at[bands.count] as usize, 0);
+            let mut cursor = at[..bands.count].to_vec();
             for (j, span) in spans.iter().enumerate() {
-                each_band(span, dims, rows, |k| {
+                bands.each(span, |k| {
                     list[cursor[k] as usize] = (c * chunk + j) as u32;
                     cursor[k] += 1;
                 });

@@ -102,8 +102,7 @@ impl CountingSort {
 
     /// Orders each work item's items by group (`per` buckets a group), in parallel.
     fn group_work_items(&mut self, keys: &[u32], per: usize, groups: usize) {
-        let size = keys.len().div_ceil(ITEMS_PER_THREAD * rayon::current_num_threads());
-        let size = size.max(ITEMS_MIN);
+        let size = crate::buffers::piece(keys.len(), ITEMS_PER_THREAD, ITEMS_MIN);
         let items = keys.len().div_ceil(size);
         // To exactly `items`, dropping any left from a larger sort: every group reads them all.
         self.local.resize_with(items, Vec::new);
