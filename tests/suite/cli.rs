@@ -382,9 +382,9 @@ fn bench_rays_reports_every_set_and_query() {
     assert!(!ok && err.contains("--threads 0"), "{err}");
 }
 
-/// `haze bench --scaling` times every phase of whole runs on 1 and 2 threads, with a serial
-/// fraction and predicted efficiencies for each and its split by the processor clock into waiting
-/// and more work, and refuses a single thread or no rounds.
+/// `haze bench --scaling` times every phase of whole runs on 1 and 2 threads, each run in a
+/// process of its own, with a serial fraction and predicted efficiencies for each and its split
+/// by the processor clock into waiting and more work, and refuses a single thread or no rounds.
 #[test]
 fn bench_scaling_reports_every_phase_on_both_thread_counts() {
     let scene = scene_path("cornell-fog.toml");
@@ -406,6 +406,16 @@ fn bench_scaling_reports_every_phase_on_both_thread_counts() {
         assert!(time(cells[2]) >= 0.0 && time(cells[3]) >= 0.0, "{row}");
         assert!(cells[4].ends_with('×') && cells[5].ends_with('%'), "{row}");
     }
+    // Every run is a process of its own, timed from outside as well: start to exit takes at
+    // least the run inside it, on each thread count.
+    let times = |start: &str| -> Vec<f64> {
+        let row = text.lines().find(|l| l.starts_with(start));
+        let row = row.unwrap_or_else(|| panic!("no row {start}:\n{text}"));
+        let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+        cells[2..4].iter().map(|c| c.parse().unwrap_or_else(|_| panic!("{c} in {row}"))).collect()
+    };
+    let (run, process) = (times("| whole run |"), times("| whole process, start to exit"));
+    assert!(process[0] >= run[0] && process[1] >= run[1], "{run:?} {process:?}\n{text}");
     // The processor clock's split of the whole run (where the platform has the clock): the
     // 2-thread run's processors busy between 0 and 100 % (a little above where the clocks'
     // readings straddle a tick, or the OpenEXR writer's own pool runs), and
@@ -443,6 +453,9 @@ fn check_scaling_refusals(scene: &std::path::Path) {
     let (ok, err) =
         haze(&["bench", scene.to_str().unwrap(), "--scaling", "--rounds", "0", "-j", "2"]);
     assert!(!ok && err.contains("--rounds"), "{err}");
+    // The runs are processes of their own: what stops one is reported with its own words.
+    let (ok, err) = haze(&["bench", "no-such-scene.toml", "--scaling", "--rounds", "1", "-j", "2"]);
+    assert!(!ok && err.contains("no-such-scene.toml") && err.contains("failed"), "{err}");
 }
 
 /// Where standard error is not a terminal (a log file, a pipe), a render prints plain progress

@@ -19,15 +19,19 @@ pub(crate) struct BenchArgs {
     /// Scene file [default: scenes/cornell-box.toml].
     scene: Option<PathBuf>,
     /// Thread scaling: whole runs (loading, the render and writing the image, as `haze render`
-    /// does them) on 1 thread and on `--threads` (default: every core), the time of each phase
-    /// at both, the serial fraction Amdahl's law gives each, and the efficiency it predicts at
-    /// 16 and 64 threads.
+    /// does them, each in a fresh process) on 1 thread and on `--threads` (default: every
+    /// core), the time of each phase at both, the serial fraction Amdahl's law gives each, and
+    /// the efficiency it predicts at 16 and 64 threads.
     #[arg(long)]
     scaling: bool,
     /// With `--scaling`: rounds (the thread counts alternate within each; each phase's shortest
     /// time counts).
     #[arg(long, value_name = "R", default_value_t = 3, requires = "scaling")]
     rounds: usize,
+    /// With `--scaling`: one whole run on T threads, its phase times printed on one line (the
+    /// scaling table's runs are each made by this, in a process of their own).
+    #[arg(long, value_name = "T", hide = true, requires = "scaling")]
+    one_run: Option<usize>,
     #[command(flatten)]
     overrides: Overrides,
 }
@@ -131,7 +135,10 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
     }
     let path = args.scene.unwrap_or_else(|| PathBuf::from("scenes/cornell-box.toml"));
     if args.scaling {
-        return crate::scaling::run(&path, &args.overrides, args.rounds);
+        return match args.one_run {
+            Some(threads) => crate::scaling::one_run(&path, &args.overrides, threads),
+            None => crate::scaling::run(&path, &args.overrides, args.rounds),
+        };
     }
     let pool = thread_pool(args.overrides.threads)?;
     let (scene, settings) = bench_scene(&pool, &path, &args.overrides)?;
