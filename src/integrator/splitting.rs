@@ -5,6 +5,7 @@
 
 use super::walk::{EyePath, EyeVisitor, Next, walk_eye};
 use crate::accel::Hit;
+use crate::buffers;
 use crate::math::{Rgb, luminance, offset_origin};
 use crate::medium::Medium;
 use crate::photon::importance::{Importance, cell, grid};
@@ -96,8 +97,11 @@ fn deposits(
         .with_max_len(1)
         .map(|c| {
             let c = c as u64;
-            let mut importon =
-                Importon { sums: vec![0.0; cells], counts: vec![0; cells], min, scale, dims };
+            // Zeros written now (not `vec!`'s zeroed pages, which map the system's page of
+            // zeros until written: each first deposit would then be a TLB shootdown; see
+            // `film::Sums::new`).
+            let (sums, counts) = (buffers::filled(cells, 0.0), buffers::filled(cells, 0));
+            let mut importon = Importon { sums, counts, min, scale, dims };
             for k in c * WALK_CHUNK..((c + 1) * WALK_CHUNK).min(walks) {
                 if stop.load(Ordering::Relaxed) {
                     return None;
@@ -110,7 +114,7 @@ fn deposits(
             Some(importon)
         })
         .collect();
-    let (mut sums, mut counts) = (vec![0.0f32; cells], vec![0u32; cells]);
+    let (mut sums, mut counts) = (buffers::filled(cells, 0.0f32), buffers::filled(cells, 0u32));
     for item in items? {
         for (s, v) in sums.iter_mut().zip(item.sums) {
             *s += v;
