@@ -43,13 +43,11 @@ const PHASES: [&str; 10] = [
 /// Seconds of each phase of one whole run, in the order of [`PHASES`].
 type Times = [f64; PHASES.len()];
 
-/// One whole run's wall-clock and processor seconds per phase, and the wall-clock seconds of its
-/// process from start to exit.
+/// One whole run's wall-clock and processor seconds per phase.
 #[derive(Clone, Copy)]
 struct Run {
     wall: Times,
     processor: Times,
-    process: f64,
 }
 
 /// What a `--one-run` process's line of times starts with.
@@ -64,9 +62,9 @@ pub(crate) fn one_run(path: &Path, overrides: &Overrides, threads: usize) -> Res
     Ok(())
 }
 
-/// One whole run on `threads` threads in a process of its own: this command again, with
-/// `--one-run`.
-fn fresh_run(threads: usize) -> Result<Run> {
+/// One whole run on `threads` threads in a process of its own (this command again, with
+/// `--one-run`), and the wall-clock seconds of that process from start to exit.
+fn fresh_run(threads: usize) -> Result<(Run, f64)> {
     let exe = std::env::current_exe().context("cannot find this program to run it again")?;
     let clock = Stopwatch::start();
     let out = std::process::Command::new(exe)
@@ -90,10 +88,10 @@ fn fresh_run(threads: usize) -> Result<Run> {
     if times.len() != 2 * PHASES.len() {
         bail!("a run on {threads} thread(s) printed no times");
     }
-    let mut run = Run { wall: [0.0; PHASES.len()], processor: [0.0; PHASES.len()], process };
+    let mut run = Run { wall: [0.0; PHASES.len()], processor: [0.0; PHASES.len()] };
     run.wall.copy_from_slice(&times[..PHASES.len()]);
     run.processor.copy_from_slice(&times[PHASES.len()..]);
-    Ok(run)
+    Ok((run, process))
 }
 
 /// One whole run on `threads` threads: load, render, write (to a temporary file, removed).
@@ -140,7 +138,7 @@ fn run_once(path: &Path, overrides: &Overrides, threads: usize) -> Result<Run> {
         let [pilot, trace, surface, volume, camera, film] = steps;
         [pick(load), setup, pilot, trace, surface, volume, camera, film, pick(write), pick(whole)]
     };
-    Ok(Run { wall: phases(|t| t.0), processor: phases(|t| t.1), process: 0.0 })
+    Ok(Run { wall: phases(|t| t.0), processor: phases(|t| t.1) })
 }
 
 /// Amdahl's serial fraction from one phase's times on 1 and `n` threads.
@@ -210,20 +208,19 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
         bail!("--rounds must lie in 1..=100");
     }
     // Each phase's shortest wall-clock time over the rounds, with that run's processor time.
-    let empty = Run {
-        wall: [f64::INFINITY; PHASES.len()],
-        processor: [0.0; PHASES.len()],
-        process: f64::INFINITY,
-    };
+    let empty = Run { wall: [f64::INFINITY; PHASES.len()], processor: [0.0; PHASES.len()] };
     let (mut one, mut many) = (empty, empty);
+    // The shortest process, start to exit, on 1 and on `n` threads.
+    let mut process = [f64::INFINITY; 2];
     let mut stolen = 0.0;
     // The steal during the fastest `n`-thread whole run, the one the table's last row reports.
     let mut stolen_from_best = None;
     for round in 1..=rounds {
-        for (threads, best) in [(1, &mut one), (n, &mut many)] {
+        for (k, (threads, best)) in [(1, &mut one), (n, &mut many)].into_iter().enumerate() {
             eprintln!("round {round}/{rounds}: {threads} thread(s)");
             let before = stolen_seconds();
-            let t = fresh_run(threads)?;
+            let (t, p) = fresh_run(threads)?;
+            process[k] = process[k].min(p);
             let steal = before.zip(stolen_seconds()).map(|(a, b)| b - a);
             stolen += steal.unwrap_or(0.0);
             if threads == n && t.wall[PHASES.len() - 1] < best.wall[PHASES.len() - 1] {
@@ -234,10 +231,9 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
                     (best.wall[i], best.processor[i]) = (t.wall[i], t.processor[i]);
                 }
             }
-            best.process = best.process.min(t.process);
         }
     }
-    print_table(path, n, rounds, &one, &many);
+    print_table(path, n, rounds, &one, &many, process);
     println!();
     println!(
         "serial fraction s = (N·T_N/T_1 − 1)/(N − 1), efficiency at M threads 1/(1 + s(M − 1)); \
@@ -274,8 +270,9 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
     Ok(())
 }
 
-/// The table of [`run`]: one row per phase.
-fn print_table(path: &Path, n: usize, rounds: usize, one: &Run, many: &Run) {
+/// The table of [`run`]: one row per phase, and one for the `process`es from start to exit (on 1
+/// and on `n` threads).
+fn print_table(path: &Path, n: usize, rounds: usize, one: &Run, many: &Run, process: [f64; 2]) {
     println!("scene: {}", path.display());
     println!(
         "whole runs on 1 and {n} threads, shortest of {rounds} rounds per phase; {} cores here",
@@ -320,7 +317,7 @@ fn print_table(path: &Path, n: usize, rounds: usize, one: &Run, many: &Run) {
     }
     // The process from start to exit: the whole run with starting the program and handing its
     // memory back to the system (timed from outside, so wall-clock only).
-    let (t1, tn) = (one.process, many.process);
+    let [t1, tn] = process;
     let s = serial_fraction(t1, tn, n);
     println!(
         "| whole process, start to exit (wall clock only) | {t1:.4} | {tn:.4} | {:.2}× | {:.1} % | | {:.0} % | {:.0} % | | | | |",
