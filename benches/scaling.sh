@@ -2,8 +2,8 @@
 # Thread scaling on a machine with many cores, in one short run (docs/performance.md, "Thread
 # scaling"): whole `haze render` runs of cornell-fog, vdb-cloud and cumulus with every integrator
 # on 2, 8 and N threads (the issue's table: speed-up over 2 threads, shortest of two runs), then
-# `haze bench --scaling -j N` on each (1 thread against N, phase by phase, with the processor
-# clock's busy / waiting / more-work split).
+# `haze bench --scaling -j N` on each (1 thread against N, each run a process of its own, phase
+# by phase, with the processor clock's busy / waiting / more-work split).
 #
 #   benches/scaling.sh [HAZE [N [OUT]]]
 #
