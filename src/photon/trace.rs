@@ -23,10 +23,23 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Light paths per parallel work item: small enough that a pass has many more items than threads
-/// (rayon steals items one at a time, so no thread waits long on another's last one), large
-/// enough that an item's bookkeeping is negligible. The photons do not depend on it.
+/// Light paths per parallel work item, at most: small enough that a pass has many more items than
+/// threads (rayon steals items one at a time, so no thread waits long on another's last one),
+/// large enough that an item's bookkeeping is negligible. The photons do not depend on it.
 const CHUNK: u64 = 1024;
+/// Work items per thread in a pass too small for [`CHUNK`]-path items to give each thread
+/// several (a pilot's few thousand paths: dense-fog's light paths scatter hundreds of times, and
+/// four items of 1024 paths left a processor idle for a third of the combined integrator's
+/// pilot) …
+const CHUNKS_PER_THREAD: usize = 8;
+/// … of at least this many paths.
+const CHUNK_MIN: usize = 16;
+
+/// The light paths of each work item of a pass of `paths`.
+fn chunk_len(paths: u64) -> u64 {
+    let piece = crate::buffers::piece(paths as usize, CHUNKS_PER_THREAD, CHUNK_MIN) as u64;
+    piece.min(CHUNK)
+}
 
 /// Settings of one photon pass.
 #[derive(Clone, Copy, Debug)]
@@ -710,14 +723,15 @@ pub(crate) fn trace_photons(
         Some(g) => Emitting::Guided(g),
         None => Emitting::ByPower(lights),
     };
-    let chunks = pass.paths.div_ceil(CHUNK) as usize;
+    let chunk = chunk_len(pass.paths);
+    let chunks = pass.paths.div_ceil(chunk) as usize;
     let mut items = std::mem::take(&mut out.items);
     items.resize_with(chunks, Photons::default);
     let finished = items.par_iter_mut().enumerate().with_max_len(1).all(|(c, local)| {
         local.clear();
         let c = c as u64;
         let before = crate::work::Work::here();
-        for index in c * CHUNK..((c + 1) * CHUNK).min(pass.paths) {
+        for index in c * chunk..((c + 1) * chunk).min(pass.paths) {
             // Path by path, as pixels are (`integrator::render_pixels`).
             if stop.load(Ordering::Relaxed) {
                 return false;
@@ -806,5 +820,43 @@ mod tests {
         assert!(checked >= 200, "only {checked} pairs of consecutive collisions");
         // The fog is thin enough that the share matters: some are far from 1.
         assert!(shares.iter().any(|&s| s < 0.5), "shares {shares:?}");
+    }
+
+    /// A pass's work items are cut per thread (a pilot's few thousand paths into 8 per thread),
+    /// and the photons, their paths and the work counted are the same whatever the cut.
+    #[test]
+    fn a_pass_leaves_the_same_photons_on_any_thread_count() {
+        let scene = Scene::load(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-fog.toml"))
+            .expect("the bundled scene loads");
+        let lights = LightSampler::new(&scene.lights, scene.shapes.len());
+        let pass = PhotonPass {
+            seed: 5,
+            iteration: 2,
+            first_path: 100,
+            paths: 3000,
+            max_bounces: 64,
+            skip_direct: false,
+            media_near: f32::INFINITY,
+            record: true,
+            mis: None,
+        };
+        let on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| {
+                let mut out = Photons::default();
+                let stop = AtomicBool::new(false);
+                assert!(trace_photons(&scene, &lights, None, None, &pass, &stop, &mut out));
+                let o = &out;
+                let all = (&o.surface, &o.volume, &o.surface_path, &o.volume_path, &o.paths);
+                (chunk_len(pass.paths), format!("{all:?} {:?}", o.work))
+            })
+        };
+        let (len, one) = on(1);
+        assert!(one.len() > 10_000, "too few photons to compare: {one}");
+        for threads in [3, 16] {
+            let (cut, photons) = on(threads);
+            assert!(cut < len, "{threads} threads cut items of {cut} paths, one thread {len}");
+            assert!(photons == one, "{threads} threads left other photons than one thread");
+        }
     }
 }
