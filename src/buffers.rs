@@ -69,6 +69,12 @@ pub(crate) fn piece(n: usize, per_thread: usize, min: usize) -> usize {
 }
 
 /// A vector of `n` copies of `value`, written in parallel.
+///
+/// Also the way to make a buffer of zeros that is read before it is written (sums added to):
+/// `vec![0; n]` asks for zeroed memory, whose pages map the system's one page of zeros until
+/// first written, and the first write to each then replaces a read-only mapping, which the
+/// kernel announces to every processor running the process (a TLB shootdown: an interrupt per
+/// page and processor). Written here, every page is first touched by a write.
 pub(crate) fn filled<T: Clone + Send + Sync>(n: usize, value: T) -> Vec<T> {
     let mut v = Vec::with_capacity(n);
     scratch(&mut v, n, value);

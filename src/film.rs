@@ -44,11 +44,8 @@ struct Sums {
 }
 
 impl Sums {
-    /// Zeros written in parallel ([`crate::buffers::filled`]), not `vec!`'s zeroed allocation:
-    /// that maps every page to the system's shared page of zeros until it is first written, and
-    /// [`Self::add`] reads each sum before writing it, so each page's first write replaced a
-    /// read-only mapping, which the kernel announces to every processor running the render (a
-    /// TLB shootdown: an interrupt per page and processor, 12 000 pages for a 640×400 film).
+    /// Zeros written ([`crate::buffers::filled`]), since [`Self::add`] reads each sum before
+    /// writing it (`vec!`'s zeroed pages cost a TLB shootdown each: 12 000 at 640×400).
     fn new(n: usize) -> Self {
         Sums { sum: crate::buffers::filled(n, [0; 3]), sum_sq: crate::buffers::filled(n, [0; 3]) }
     }

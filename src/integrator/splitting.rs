@@ -97,9 +97,7 @@ fn deposits(
         .with_max_len(1)
         .map(|c| {
             let c = c as u64;
-            // Zeros written now (not `vec!`'s zeroed pages, which map the system's page of
-            // zeros until written: each first deposit would then be a TLB shootdown; see
-            // `film::Sums::new`).
+            // Zeros written, since deposits are added to them (`buffers::filled` says why).
             let (sums, counts) = (buffers::filled(cells, 0.0), buffers::filled(cells, 0));
             let mut importon = Importon { sums, counts, min, scale, dims };
             for k in c * WALK_CHUNK..((c + 1) * WALK_CHUNK).min(walks) {
