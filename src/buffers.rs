@@ -68,6 +68,25 @@ pub(crate) fn piece(n: usize, per_thread: usize, min: usize) -> usize {
     n.div_ceil(per_thread * rayon::current_num_threads()).max(min)
 }
 
+/// Terms per partial sum of [`sum`]: a constant, so that the sum is the same on any number of
+/// threads.
+const SUM_PIECE: usize = 1 << 13;
+
+/// The sum of `term(i)` for i in 0..n, added in pieces of a fixed length (in parallel where they
+/// are many) and the pieces' sums then added in order: the same bits on any number of threads (a
+/// float sum's rounding depends on the order of its terms, and rayon's own `sum` splits where
+/// the threads steal). The bits of a serial loop only where the partial sums are exact (counts,
+/// or values of 0 and 1) or the terms fit one piece.
+pub(crate) fn sum(n: usize, term: impl Fn(usize) -> f64 + Sync) -> f64 {
+    let piece = |k: usize| (k * SUM_PIECE..n.min((k + 1) * SUM_PIECE)).map(&term).sum::<f64>();
+    let pieces = n.div_ceil(SUM_PIECE);
+    if n < PARALLEL_FROM {
+        return (0..pieces).map(piece).sum();
+    }
+    let parts: Vec<f64> = (0..pieces).into_par_iter().map(piece).collect();
+    parts.iter().sum()
+}
+
 /// A vector of `n` copies of `value`, written in parallel.
 ///
 /// Also the way to make a buffer of zeros that is read before it is written (sums added to):
@@ -104,6 +123,29 @@ mod tests {
             let mut a = old.clone();
             collect(&mut a, (0..n as u32).into_par_iter().map(|i| i * 3));
             assert_eq!(a, (0..n as u32).map(|i| i * 3).collect::<Vec<_>>());
+        }
+    }
+
+    /// The sum in pieces has the same bits on 1, 2 and 7 threads, also where the order of the
+    /// terms shows in the rounding, and it is the sum: within a few ulps of an exact one (here
+    /// of fractions whose exact sum is known).
+    #[test]
+    fn a_sum_is_the_same_on_any_thread_count() {
+        for n in [0usize, 1, 5000, 100_000, 1_000_003] {
+            // Terms 1/3 · 10^(k mod 7): every addition rounds, and terms of different sizes
+            // make the order matter.
+            let items: Vec<f64> = (0..n).map(|k| 10f64.powi((k % 7) as i32) / 3.0).collect();
+            let on = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                pool.install(|| sum(items.len(), |i| items[i]))
+            };
+            let one = on(1);
+            assert_eq!(on(2).to_bits(), one.to_bits(), "{n} items");
+            assert_eq!(on(7).to_bits(), one.to_bits(), "{n} items");
+            // Σ over whole cycles of 7 terms (1 + 10 + … + 10⁶)/3 = 1111111/3, plus the rest.
+            let exact = (n / 7) as f64 * 1_111_111.0 / 3.0
+                + (0..n % 7).map(|k| 10f64.powi(k as i32)).sum::<f64>() / 3.0;
+            assert!((one - exact).abs() <= 1e-12 * exact.max(1.0), "{n}: {one} vs {exact}");
         }
     }
 }

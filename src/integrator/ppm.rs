@@ -8,10 +8,11 @@ use super::camera::{CameraPass, Maps, render_pass};
 use super::frame::{StepTimes, Stopwatch};
 use crate::estimate::surface::Gather;
 use crate::photon::beam::{BeamMap, Thinning};
-use crate::photon::guide::{EmissionGuide, LightUse, PilotPath};
+use crate::photon::guide::{EmissionGuide, LightUse, PilotPath, light_use};
 use crate::photon::importance::Importance;
 use crate::photon::map::PhotonGrid;
 use crate::photon::marks::{GatherMarks, Tally};
+use crate::photon::sort::CountingSort;
 use crate::photon::trace::{PhotonPass, Photons, trace_photons};
 use crate::photon::{Photon, VolumePhoton};
 use crate::plan::Plan;
@@ -171,7 +172,9 @@ impl PhotonMapper {
             return true;
         }
         let per_round = self.plan.paths.clamp(PILOT_PATHS.0, PILOT_PATHS.1);
-        let mut paths: Vec<PilotPath> = Vec::new();
+        // Room for every round (pages are touched only as the rounds fill them), so that a second
+        // round does not copy the first's paths on one thread.
+        let mut paths: Vec<PilotPath> = Vec::with_capacity((PILOT_ROUNDS * per_round) as usize);
         for round in 0..PILOT_ROUNDS {
             let pass = PhotonPass {
                 first_path: round * per_round,
@@ -181,7 +184,7 @@ impl PhotonMapper {
                 return false;
             }
             let Some(marks) = self.gather_marks(scene, 0, stop) else { return false };
-            paths.extend(self.pilot_paths(&marks, pass.first_path));
+            self.pilot_paths(&marks, pass.first_path, &mut paths);
             let usage = light_use(self.lights.len(), &paths);
             let wanting = |u: &LightUse| u.visible < PILOT_VISIBLE && 2 * u.visible < u.paths;
             if !usage.iter().any(wanting) {
@@ -193,9 +196,9 @@ impl PhotonMapper {
         true
     }
 
-    /// The pilot paths of the photons in hand (the first numbered `first`), each with the sum of
-    /// its photons' tallies in `marks`.
-    fn pilot_paths(&self, marks: &GatherMarks, first: u64) -> Vec<PilotPath> {
+    /// Appends to `out` the pilot paths of the photons in hand (the first numbered `first`), each
+    /// with the sum of its photons' tallies in `marks`.
+    fn pilot_paths(&self, marks: &GatherMarks, first: u64, out: &mut Vec<PilotPath>) {
         use rayon::prelude::*;
         let photons = &self.photons;
         let volume_origin = |slot| match self.plan.estimate {
@@ -215,25 +218,20 @@ impl PhotonMapper {
                 })
                 .collect::<Vec<(u32, f32)>>()
         };
-        let surface =
+        let mut slots =
             gathered(&marks.surface, &|slot| photons.surface_path[self.surface_map.origin(slot)]);
-        let volume = gathered(&marks.volume, &|slot| photons.volume_path[volume_origin(slot)]);
-        // Each thread adds up the tallies of its own range of paths, reading every slot in
-        // order (a path's sum in the same order as on one thread).
-        let mut value = crate::buffers::filled(photons.paths.len(), 0.0f32);
-        let per = crate::buffers::piece(value.len(), 1, 1 << 12);
-        value.par_chunks_mut(per).enumerate().for_each(|(k, part)| {
-            let lo = first + (k * per) as u64;
-            for &(path, v) in surface.iter().chain(&volume) {
-                if let Some(x) =
-                    (path as u64).checked_sub(lo).and_then(|j| part.get_mut(j as usize))
-                {
-                    *x += v;
-                }
-            }
-        });
-        let paths = photons.paths.par_iter().zip(&value);
-        paths.map(|(&(light, u), &value)| PilotPath { light, u, value }).collect()
+        slots.par_extend(gathered(&marks.volume, &|slot| photons.volume_path[volume_origin(slot)]));
+        // Each path's slots, in slot order (a stable counting sort by path), read once each.
+        let keys: Vec<u32> = slots.par_iter().map(|&(path, _)| path - first as u32).collect();
+        let (mut start, mut order) = (Vec::new(), Vec::new());
+        let n = photons.paths.len();
+        CountingSort::default().sort(&keys, n, &mut start, &mut order);
+        let value = |j: usize| {
+            let mine = &order[start[j] as usize..start[j + 1] as usize];
+            mine.iter().fold(0.0f32, |sum, &k| sum + slots[k as usize].1)
+        };
+        let paths = photons.paths.par_iter().enumerate();
+        out.par_extend(paths.map(|(j, &(light, u))| PilotPath { light, u, value: value(j) }));
     }
 
     /// Builds the maps of the photons in hand at iteration 1's radii (`iteration` keys their
@@ -370,17 +368,6 @@ const PILOT_VISIBLE: u64 = 512;
 
 /// … or this many rounds have run.
 const PILOT_ROUNDS: u64 = 2;
-
-/// Pilot paths and visible ones, per light.
-fn light_use(lights: usize, paths: &[PilotPath]) -> Vec<LightUse> {
-    let mut usage = vec![LightUse::default(); lights];
-    for p in paths {
-        let u = &mut usage[p.light as usize];
-        u.paths += 1;
-        u.visible += (p.value > 0.0) as u64;
-    }
-    usage
-}
 
 /// What the photons of one iteration were used for ([`photon_usage`](crate::photon_usage)).
 #[derive(Clone, Debug, Default)]

@@ -39,6 +39,7 @@
 //! sampled with a fixed, everywhere positive density: its expected estimate is exactly the
 //! unguided one, and the schedule's convergence argument holds unchanged (docs/theory.md).
 
+use crate::photon::sort::CountingSort;
 use crate::scene::light::{Light, LightSampler};
 use glam::Vec2;
 use rayon::prelude::*;
@@ -59,6 +60,10 @@ const MAX_DEPTH: u32 = 10;
 
 /// A node of at least this many pilot points grows its quadrants' subtrees in parallel.
 const PARALLEL_POINTS: usize = 1 << 14;
+
+/// A node of at least this many pilot points is split into its quadrants in parallel (whatever
+/// the subtrees' growth does, so that a tree grown serially is cut the same way).
+const PARTITION_PARALLEL: usize = 1 << 15;
 
 /// Which pair of a light's emission uniforms the guide warps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -130,7 +135,7 @@ impl QuadTree {
 
     /// [`Self::fit`], growing subtrees of nodes of at least `parallel_from` points in parallel.
     fn fit_with(points: &mut [(Vec2, f32)], defensive: f32, parallel_from: usize) -> (Self, f64) {
-        let total: f64 = points.iter().map(|p| p.1 as f64).sum();
+        let total = crate::buffers::sum(points.len(), |i| points[i].1 as f64);
         if total <= 0.0 {
             return (Self::uniform(), 0.0);
         }
@@ -184,15 +189,18 @@ impl QuadTree {
         let half = 0.5 * size;
         let mid = origin + Vec2::splat(half);
         let quadrant = |p: &(Vec2, f32)| (p.0.x >= mid.x) as usize + 2 * (p.0.y >= mid.y) as usize;
-        points.sort_unstable_by_key(quadrant);
+        let start = partition(points, quadrant);
         let mut quadrants = Vec::with_capacity(4);
         let mut rest = points;
         for q in 0..4 {
-            let n = rest.iter().take_while(|p| quadrant(p) == q).count();
-            let (mine, tail) = rest.split_at_mut(n);
+            let (mine, tail) = rest.split_at_mut(start[q + 1] - start[q]);
             rest = tail;
-            let seen = mine.iter().filter(|p| p.1 > 0.0).count();
-            let moment: f64 = mine.iter().map(|p| p.1 as f64).sum();
+            let seen = if mine.len() < PARTITION_PARALLEL {
+                mine.iter().filter(|p| p.1 > 0.0).count()
+            } else {
+                mine.par_iter().filter(|p| p.1 > 0.0).count()
+            };
+            let moment = crate::buffers::sum(mine.len(), |i| mine[i].1 as f64);
             let split = depth + 1 < MAX_DEPTH
                 && seen >= SPLIT_MIN
                 && moment > SPLIT_SHARE as f64 * fit.total;
@@ -330,18 +338,39 @@ pub(crate) const NEGLIGIBLE: f64 = 1e-3;
 /// few photons with large contributions — the noise of a single pilot pass — would otherwise
 /// shape the whole density.
 fn visibility(paths: &[PilotPath]) -> Vec<PilotPath> {
-    let (sum, count) = paths
-        .iter()
-        .filter(|p| p.value > 0.0)
-        .fold((0.0f64, 0usize), |(s, c), p| (s + (p.value as f64).sqrt(), c + 1));
+    let root = |p: &PilotPath| if p.value > 0.0 { (p.value as f64).sqrt() } else { 0.0 };
+    let sum = crate::buffers::sum(paths.len(), |i| root(&paths[i]));
+    let count = paths.par_iter().filter(|p| p.value > 0.0).count();
     let threshold = if count > 0 { NEGLIGIBLE * sum / count as f64 } else { 0.0 };
     paths
-        .iter()
+        .par_iter()
         .map(|p| {
             let seen = p.value > 0.0 && (p.value as f64).sqrt() >= threshold;
             PilotPath { value: seen as u8 as f32, ..*p }
         })
         .collect()
+}
+
+/// Pilot paths, and those with a value above zero, per light of `lights`.
+pub(crate) fn light_use(lights: usize, paths: &[PilotPath]) -> Vec<LightUse> {
+    let count = |part: &[PilotPath]| {
+        let mut usage = vec![LightUse::default(); lights];
+        for p in part {
+            let u = &mut usage[p.light as usize];
+            u.paths += 1;
+            u.visible += (p.value > 0.0) as u64;
+        }
+        usage
+    };
+    let add = |mut a: Vec<LightUse>, b: Vec<LightUse>| {
+        for (a, b) in a.iter_mut().zip(b) {
+            (a.paths, a.visible) = (a.paths + b.paths, a.visible + b.visible);
+        }
+        a
+    };
+    let piece = crate::buffers::piece(paths.len(), 4, 1 << 14);
+    let usage = paths.par_chunks(piece).map(count).reduce_with(add);
+    usage.unwrap_or_else(|| vec![LightUse::default(); lights])
 }
 
 /// Below this estimated gain (the factor by which guiding lowers the second moment of a light
@@ -390,23 +419,22 @@ impl EmissionGuide {
     ) -> (Option<Self>, Vec<LightUse>, f64) {
         let n = sampler.len();
         let seen = &visibility(paths);
-        let mut usage = vec![LightUse::default(); n];
-        for p in seen {
-            usage[p.light as usize].paths += 1;
-            usage[p.light as usize].visible += (p.value > 0.0) as u64;
-        }
-        let even: Vec<PilotPath> = seen.iter().step_by(2).copied().collect();
-        // The guide from every path is fitted beside the trial (the fits are serial work, once
-        // per render), and dropped if the trial says guiding does not pay.
+        let mut usage = light_use(n, seen);
+        let even: Vec<PilotPath> = seen.par_iter().step_by(2).copied().collect();
+        // The guide from every path is fitted beside the trial (each fit is parallel only in its
+        // larger nodes), and dropped if the trial says guiding does not pay.
         let (trial, guide) = rayon::join(|| Self::fit(sampler, &even), || Self::fit(sampler, seen));
         let Some(trial) = trial else { return (None, usage, 1.0) };
-        let (mut unguided, mut guided) = (0.0f64, 0.0f64);
-        for p in paths.iter().skip(1).step_by(2).filter(|p| p.value > 0.0) {
-            let l = p.light as usize;
-            let weight = sampler.emission_prob(l) as f64 / trial.density(l, p.u) as f64;
-            unguided += p.value as f64;
-            guided += p.value as f64 * weight;
-        }
+        // Over the odd-numbered paths, those gathered (the others add nothing).
+        let odd = |k: usize| Some(&paths[2 * k + 1]).filter(|p| p.value > 0.0);
+        let unguided =
+            crate::buffers::sum(paths.len() / 2, |k| odd(k).map_or(0.0, |p| p.value as f64));
+        let guided = crate::buffers::sum(paths.len() / 2, |k| {
+            odd(k).map_or(0.0, |p| {
+                let l = p.light as usize;
+                p.value as f64 * (sampler.emission_prob(l) as f64 / trial.density(l, p.u) as f64)
+            })
+        });
         let gain = if guided > 0.0 { unguided / guided } else { 1.0 };
         if gain.is_nan() || gain < MIN_GAIN {
             return (None, usage, gain);
@@ -422,12 +450,25 @@ impl EmissionGuide {
     /// The tables and light choice fitted to `paths`; `None` if none of them was visible.
     fn fit(sampler: &LightSampler, paths: &[PilotPath]) -> Option<Self> {
         let n = sampler.len();
-        let mut points: Vec<Vec<(Vec2, f32)>> = vec![Vec::new(); n];
-        for p in paths {
-            points[p.light as usize].push((p.u, p.value));
+        // Each light's points, in path order, one light after another.
+        let point = |p: &PilotPath| (p.u, p.value);
+        let (mut points, start): (Vec<(Vec2, f32)>, Vec<u32>) = if n == 1 {
+            (paths.par_iter().map(point).collect(), vec![0, paths.len() as u32])
+        } else {
+            let keys: Vec<u32> = paths.par_iter().map(|p| p.light).collect();
+            let (mut start, mut order) = (Vec::new(), Vec::new());
+            CountingSort::default().sort(&keys, n, &mut start, &mut order);
+            (order.par_iter().map(|&i| point(&paths[i as usize])).collect(), start)
+        };
+        let mut per_light = Vec::with_capacity(n);
+        let mut rest = &mut points[..];
+        for l in 0..n {
+            let (mine, tail) = rest.split_at_mut((start[l + 1] - start[l]) as usize);
+            per_light.push(mine);
+            rest = tail;
         }
         let (tables, integrals): (Vec<QuadTree>, Vec<f64>) =
-            points.par_iter_mut().map(|v| QuadTree::fit(v, 0.0)).unzip();
+            per_light.into_par_iter().map(|v| QuadTree::fit(v, 0.0)).unzip();
         let power: Vec<f32> = (0..n).map(|l| sampler.emission_prob(l)).collect();
         let useful: Vec<f64> = (0..n).map(|l| power[l] as f64 * integrals[l]).collect();
         let total: f64 = useful.iter().sum();
@@ -460,6 +501,29 @@ impl EmissionGuide {
         DEFENSIVE * self.power[light]
             + (1.0 - DEFENSIVE) * self.probs[light] * self.tables[light].pdf(v)
     }
+}
+
+/// Puts `points` in the order of their `quadrant` (0 to 3), and returns where each quadrant's
+/// points start, and the end. Nodes of [`PARTITION_PARALLEL`] points or more are split by a stable
+/// counting sort in parallel (the root holds every pilot path of its light: a serial sort of
+/// them was most of a fit's time); smaller ones by a sort on the calling thread. Either way the
+/// order depends only on the points, not on the threads.
+fn partition(
+    points: &mut [(Vec2, f32)],
+    quadrant: impl Fn(&(Vec2, f32)) -> usize + Sync,
+) -> [usize; 5] {
+    let n = points.len();
+    if n < PARTITION_PARALLEL {
+        points.sort_unstable_by_key(&quadrant);
+        let first = |q: usize| points.partition_point(|p| quadrant(p) < q);
+        return [0, first(1), first(2), first(3), n];
+    }
+    let keys: Vec<u32> = points.par_iter().map(|p| quadrant(p) as u32).collect();
+    let (mut start, mut order) = (Vec::new(), Vec::new());
+    CountingSort::default().sort(&keys, 4, &mut start, &mut order);
+    let sorted: Vec<(Vec2, f32)> = order.par_iter().map(|&i| points[i as usize]).collect();
+    points.par_iter_mut().zip(sorted).for_each(|(p, s)| *p = s);
+    [0, 1, 2, 3, 4].map(|q| start[q] as usize)
 }
 
 /// Running sums of `probs`.
@@ -509,6 +573,42 @@ mod tests {
             };
             assert_eq!(bits(&parallel), bits(&serial), "parallel from {from} points");
             assert_eq!(a.to_bits(), b.to_bits());
+        }
+    }
+
+    /// A node's points put in quadrant order: a permutation of them, grouped by quadrant at the
+    /// starts returned, and — for nodes split in parallel — each quadrant's points in their
+    /// order before, the same on 1 and 4 threads.
+    #[test]
+    fn partition_groups_points_by_quadrant() {
+        let mut s = Sampler::new(9, Purpose::Other, 0, 0);
+        for n in [0, 7, 1000, PARTITION_PARALLEL, 3 * PARTITION_PARALLEL + 5] {
+            let points: Vec<(Vec2, f32)> = (0..n).map(|i| (s.next_2d(), i as f32)).collect();
+            let quadrant = |p: &(Vec2, f32)| (p.0.x >= 0.3) as usize + 2 * (p.0.y >= 0.6) as usize;
+            let on = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let mut v = points.clone();
+                let start = pool.install(|| partition(&mut v, quadrant));
+                (v, start)
+            };
+            let (v, start) = on(1);
+            assert_eq!((start[0], start[4]), (0, n));
+            for q in 0..4 {
+                assert!(v[start[q]..start[q + 1]].iter().all(|p| quadrant(p) == q), "{n}: {q}");
+            }
+            // The values are the points' indices: a permutation, in order within a quadrant
+            // where the split is stable.
+            let mut seen: Vec<usize> = v.iter().map(|p| p.1 as usize).collect();
+            if n >= PARTITION_PARALLEL {
+                for q in 0..4 {
+                    assert!(seen[start[q]..start[q + 1]].is_sorted(), "{n} points, quadrant {q}");
+                }
+                let (w, start4) = on(4);
+                assert_eq!(start4, start);
+                assert!(w.iter().zip(&v).all(|(a, b)| a.1 == b.1), "{n} points, 4 threads");
+            }
+            seen.sort_unstable();
+            assert!(seen.iter().enumerate().all(|(i, &k)| i == k), "{n}: not a permutation");
         }
     }
 
