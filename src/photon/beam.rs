@@ -95,8 +95,10 @@ impl Sizing {
         // each axis (a few stray photons far away must not make every cell huge), estimated from
         // an evenly strided sample.
         let stride = photons.len().div_ceil(1 << 16);
+        // The sample gathered once, in parallel: a strided read misses the cache at every photon.
+        let sample: Vec<Vec3> = photons.par_iter().step_by(stride).map(|p| p.p).collect();
         let side = |axis: usize| {
-            let mut coord: Vec<f32> = photons.iter().step_by(stride).map(|p| p.p[axis]).collect();
+            let mut coord: Vec<f32> = sample.iter().map(|p| p[axis]).collect();
             let n = coord.len();
             let a = *coord.select_nth_unstable_by(n / 20, f32::total_cmp).1;
             let b = *coord.select_nth_unstable_by(n - 1 - n / 20, f32::total_cmp).1;
