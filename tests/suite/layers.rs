@@ -10,8 +10,9 @@
 //! - a path written out in code, types or macro arguments (`crate::math::Rgb::ZERO`,
 //!   `super::MAX_COORDINATE`, `grid::voxel` after `use crate::medium::grid`).
 //!
-//! Code under `#[cfg(test)]` is left out: tests may reach anywhere. A circle is reported with the
-//! arrows that tie it and the names each takes, so the mend can start from the message.
+//! Code under `#[cfg(test)]` (or in a file that begins `#![cfg(test)]`) is left out: tests may
+//! reach anywhere. A circle is reported with the arrows that tie it and the names each takes, so
+//! the mend can start from the message.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -274,6 +275,10 @@ fn read_crate(dir: &Path, root: &str, skip: Option<&Path>) -> Crate {
         }
         let text = std::fs::read_to_string(&file).unwrap();
         let ast = syn::parse_file(&text).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+        // A module's tests moved to a file of their own say `#![cfg(test)]`: test code too.
+        if is_test_attr(&ast.attrs) {
+            continue;
+        }
         let mut f = FileFacts::default();
         let mut c = Collector { module: module.clone(), facts: &mut f, inline: Vec::new() };
         c.visit_file(&ast);
@@ -548,7 +553,8 @@ fn no_function_runs_over_80_lines() {
     assert!(shrunk.is_empty(), "listed as long but no longer over the limit (or gone): {shrunk:?}");
 }
 
-/// The check sees a circle where one is: two files of a small crate that name each other.
+/// The check sees a circle where one is: two files of a small crate that name each other; and
+/// none through a file of tests.
 #[test]
 fn a_circle_is_seen() {
     let dir = std::env::temp_dir().join(format!("haze-layers-{}", std::process::id()));
@@ -558,12 +564,23 @@ fn a_circle_is_seen() {
         .unwrap();
     // c.rs reaches b.rs through a path in code; b.rs reaches c.rs through a's re-export.
     std::fs::write(dir.join("a/c.rs"), "pub struct Face;\nfn f() { crate::b::g(); }\n").unwrap();
-    std::fs::write(dir.join("b.rs"), "pub struct B(crate::a::Face);\npub fn g() {}\n").unwrap();
-    let c = read_crate(&dir, "lib.rs", None);
-    let text = report(&dir, &c);
+    // A file of tests (`#![cfg(test)]`) that b.rs names and that names b.rs: test code, no
+    // circle; the same file without the attribute ties one.
+    let tests = |attr: &str| format!("{attr}\npub fn t() {{ crate::b::g(); }}\n");
+    std::fs::write(
+        dir.join("b.rs"),
+        "pub struct B(crate::a::Face);\npub fn g() { crate::t::t(); }\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("t.rs"), tests("#![cfg(test)]")).unwrap();
+    let text = report(&dir, &read_crate(&dir, "lib.rs", None));
+    std::fs::write(dir.join("t.rs"), tests("")).unwrap();
+    let untested = report(&dir, &read_crate(&dir, "lib.rs", None));
     std::fs::remove_dir_all(&dir).unwrap();
     assert!(text.contains("a/c.rs -> b.rs: g"), "{text}");
     assert!(text.contains("b.rs -> a/c.rs: Face"), "{text}");
     // a/mod.rs takes B from b.rs, but nothing leads back to a/mod.rs itself.
     assert!(!text.contains("a/mod.rs,"), "{text}");
+    assert!(!text.contains("t.rs"), "{text}");
+    assert!(untested.contains("t.rs -> b.rs: g"), "{untested}");
 }
