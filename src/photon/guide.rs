@@ -39,7 +39,7 @@
 //! sampled with a fixed, everywhere positive density: its expected estimate is exactly the
 //! unguided one, and the schedule's convergence argument holds unchanged (docs/theory.md).
 
-use crate::photon::sort::CountingSort;
+use crate::photon::sort::split;
 use crate::scene::light::{Light, LightSampler};
 use glam::Vec2;
 use rayon::prelude::*;
@@ -60,6 +60,10 @@ const MAX_DEPTH: u32 = 10;
 
 /// A node of at least this many pilot points grows its quadrants' subtrees in parallel.
 const PARALLEL_POINTS: usize = 1 << 14;
+
+/// Lights among which a fit splits its pilot paths in parallel ([`split`]); among more, on one
+/// thread.
+const SPLIT_LIGHTS: usize = 64;
 
 /// A node of at least this many pilot points is split into its quadrants in parallel (whatever
 /// the subtrees' growth does, so that a tree grown serially is cut the same way).
@@ -95,6 +99,9 @@ struct Node {
 pub(crate) struct QuadTree {
     nodes: Vec<Node>,
 }
+
+/// Pilot points — a pair of uniforms and a path's value — being fitted.
+type Points<'a> = &'a mut [(Vec2, f32)];
 
 /// The largest f32 below 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
@@ -141,7 +148,9 @@ impl QuadTree {
         }
         let mut tree = Self { nodes: Vec::new() };
         let fit = Fit { all: points.len() as f64, total, parallel_from };
-        let integral = tree.grow(points, Vec2::ZERO, 1.0, 0, &fit) as f64;
+        // Where large nodes' points go when they are split (and back, a level down).
+        let mut spare = crate::buffers::filled(points.len(), (Vec2::ZERO, 0.0));
+        let integral = tree.grow(points, &mut spare, Vec2::ZERO, 1.0, 0, &fit) as f64;
         // Normalise the √m masses to one and mix in the uniform density.
         let scale = (1.0 - defensive) / integral as f32;
         let mut stack = vec![(0usize, 1.0f32)];
@@ -172,13 +181,15 @@ impl QuadTree {
         self.nodes[at].mass.iter().sum()
     }
 
-    /// Appends the node over the square at `origin` of side `size` holding `points`; returns its
-    /// √m mass. Each quadrant's subtree grows into a tree of its own that is then appended, side
-    /// by side in nodes of at least `fit.parallel_from` points: the nodes, their order (depth
-    /// first, quadrants in order) and every mass are the same either way.
+    /// Appends the node over the square at `origin` of side `size` holding `points` (`spare`, as
+    /// long, is room for [`partition`]); returns its √m mass. Each quadrant's subtree grows into a
+    /// tree of its own that is then appended, side by side in nodes of at least
+    /// `fit.parallel_from` points: the nodes, their order (depth first, quadrants in order) and
+    /// every mass are the same either way.
     fn grow(
         &mut self,
         points: &mut [(Vec2, f32)],
+        spare: &mut [(Vec2, f32)],
         origin: Vec2,
         size: f32,
         depth: u32,
@@ -189,12 +200,14 @@ impl QuadTree {
         let half = 0.5 * size;
         let mid = origin + Vec2::splat(half);
         let quadrant = |p: &(Vec2, f32)| (p.0.x >= mid.x) as usize + 2 * (p.0.y >= mid.y) as usize;
-        let start = partition(points, quadrant);
+        let (start, points, spare) = partition(points, spare, quadrant);
         let mut quadrants = Vec::with_capacity(4);
-        let mut rest = points;
+        let (mut rest, mut room) = (points, spare);
         for q in 0..4 {
-            let (mine, tail) = rest.split_at_mut(start[q + 1] - start[q]);
-            rest = tail;
+            let n = start[q + 1] - start[q];
+            let (mine, tail) = rest.split_at_mut(n);
+            let (mine_spare, room_tail) = room.split_at_mut(n);
+            (rest, room) = (tail, room_tail);
             let seen = if mine.len() < PARTITION_PARALLEL {
                 mine.iter().filter(|p| p.1 > 0.0).count()
             } else {
@@ -204,7 +217,7 @@ impl QuadTree {
             let split = depth + 1 < MAX_DEPTH
                 && seen >= SPLIT_MIN
                 && moment > SPLIT_SHARE as f64 * fit.total;
-            quadrants.push((q, mine, moment, split));
+            quadrants.push((q, mine, mine_spare, moment, split));
         }
         let corner = |q: usize| origin + Vec2::new((q % 2) as f32, (q / 2) as f32) * half;
         let leaf = |moment: f64| {
@@ -212,10 +225,11 @@ impl QuadTree {
             ((moment / (fit.all * area)).sqrt() * area) as f32
         };
         // A quadrant's subtree grows into a tree of its own, appended below in quadrant order.
-        let grow = |(q, mine, moment, split): (usize, &mut [(Vec2, f32)], f64, bool)| {
+        type Quadrant<'a> = (usize, Points<'a>, Points<'a>, f64, bool);
+        let grow = |(q, mine, mine_spare, moment, split): Quadrant| {
             if split {
                 let mut sub = Self { nodes: Vec::new() };
-                let mass = sub.grow(mine, corner(q), half, depth + 1, fit);
+                let mass = sub.grow(mine, mine_spare, corner(q), half, depth + 1, fit);
                 (q, Some(sub), mass)
             } else {
                 (q, None, leaf(moment))
@@ -450,20 +464,28 @@ impl EmissionGuide {
     /// The tables and light choice fitted to `paths`; `None` if none of them was visible.
     fn fit(sampler: &LightSampler, paths: &[PilotPath]) -> Option<Self> {
         let n = sampler.len();
-        // Each light's points, in path order, one light after another.
+        // Each light's points, in path order, one light after another: split in parallel among
+        // a few lights, in two passes on this thread among many (a piece of a split holds a part
+        // per light).
         let point = |p: &PilotPath| (p.u, p.value);
-        let (mut points, start): (Vec<(Vec2, f32)>, Vec<u32>) = if n == 1 {
-            (paths.par_iter().map(point).collect(), vec![0, paths.len() as u32])
+        let mut points = crate::buffers::filled(paths.len(), (Vec2::ZERO, 0.0));
+        let start = if n <= SPLIT_LIGHTS {
+            split(paths, &mut points, n, |p| p.light as usize, point)
         } else {
-            let keys: Vec<u32> = paths.par_iter().map(|p| p.light).collect();
-            let (mut start, mut order) = (Vec::new(), Vec::new());
-            CountingSort::default().sort(&keys, n, &mut start, &mut order);
-            (order.par_iter().map(|&i| point(&paths[i as usize])).collect(), start)
+            let mut start = vec![0; n + 1];
+            paths.iter().for_each(|p| start[p.light as usize + 1] += 1);
+            (0..n).for_each(|l| start[l + 1] += start[l]);
+            let mut at = start.clone();
+            for p in paths {
+                points[at[p.light as usize]] = point(p);
+                at[p.light as usize] += 1;
+            }
+            start
         };
         let mut per_light = Vec::with_capacity(n);
         let mut rest = &mut points[..];
         for l in 0..n {
-            let (mine, tail) = rest.split_at_mut((start[l + 1] - start[l]) as usize);
+            let (mine, tail) = rest.split_at_mut(start[l + 1] - start[l]);
             per_light.push(mine);
             rest = tail;
         }
@@ -503,27 +525,25 @@ impl EmissionGuide {
     }
 }
 
-/// Puts `points` in the order of their `quadrant` (0 to 3), and returns where each quadrant's
-/// points start, and the end. Nodes of [`PARTITION_PARALLEL`] points or more are split by a stable
-/// counting sort in parallel (the root holds every pilot path of its light: a serial sort of
-/// them was most of a fit's time); smaller ones by a sort on the calling thread. Either way the
-/// order depends only on the points, not on the threads.
-fn partition(
-    points: &mut [(Vec2, f32)],
+/// Puts the points of a node in the order of their `quadrant` (0 to 3): returns where each
+/// quadrant's points start (and the end), the slice that holds them so ordered — `points` or
+/// `spare` — and the other one, free. Nodes of [`PARTITION_PARALLEL`] points or more are split in
+/// parallel and stably into `spare` ([`split`]: the root holds every pilot path of its light, and
+/// a serial sort of them was most of a fit's time); smaller ones are sorted in place on the
+/// calling thread. Either way the order depends only on the points, not on the threads.
+fn partition<'a>(
+    points: Points<'a>,
+    spare: Points<'a>,
     quadrant: impl Fn(&(Vec2, f32)) -> usize + Sync,
-) -> [usize; 5] {
+) -> ([usize; 5], Points<'a>, Points<'a>) {
     let n = points.len();
     if n < PARTITION_PARALLEL {
         points.sort_unstable_by_key(&quadrant);
         let first = |q: usize| points.partition_point(|p| quadrant(p) < q);
-        return [0, first(1), first(2), first(3), n];
+        return ([0, first(1), first(2), first(3), n], points, spare);
     }
-    let keys: Vec<u32> = points.par_iter().map(|p| quadrant(p) as u32).collect();
-    let (mut start, mut order) = (Vec::new(), Vec::new());
-    CountingSort::default().sort(&keys, 4, &mut start, &mut order);
-    let sorted: Vec<(Vec2, f32)> = order.par_iter().map(|&i| points[i as usize]).collect();
-    points.par_iter_mut().zip(sorted).for_each(|(p, s)| *p = s);
-    [0, 1, 2, 3, 4].map(|q| start[q] as usize)
+    let start = split(points, spare, 4, quadrant, |p| *p);
+    ([start[0], start[1], start[2], start[3], start[4]], spare, points)
 }
 
 /// Running sums of `probs`.
@@ -587,8 +607,11 @@ mod tests {
             let quadrant = |p: &(Vec2, f32)| (p.0.x >= 0.3) as usize + 2 * (p.0.y >= 0.6) as usize;
             let on = |threads: usize| {
                 let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-                let mut v = points.clone();
-                let start = pool.install(|| partition(&mut v, quadrant));
+                let (mut v, mut spare) = (points.clone(), points.clone());
+                let (start, v) = pool.install(|| {
+                    let (start, v, _) = partition(&mut v, &mut spare, quadrant);
+                    (start, v.to_vec())
+                });
                 (v, start)
             };
             let (v, start) = on(1);

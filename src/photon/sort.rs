@@ -172,6 +172,65 @@ fn place<I: DoubleEndedIterator<Item = (u32, usize)>>(
     }
 }
 
+/// Items per piece of a [`split`]: a constant, so that its result does not depend on the number of
+/// threads.
+const SPLIT_PIECE: usize = 1 << 13;
+
+/// Writes `items`, mapped by `map`, into `out` (as long) grouped by `key` (0..`buckets`), each
+/// group in the items' order (a stable partition), and returns where each group starts, and the
+/// end. In parallel over pieces of the items: each piece counts its items per group, then writes
+/// them to its share of each group's range. Meant for a few groups (the quadrants of a node, a
+/// scene's lights): each piece holds a part of `out` per group, where [`CountingSort`] sorts into
+/// millions of buckets through index lists.
+pub(crate) fn split<S: Sync, T: Send>(
+    items: &[S],
+    out: &mut [T],
+    buckets: usize,
+    key: impl Fn(&S) -> usize + Sync,
+    map: impl Fn(&S) -> T + Sync,
+) -> Vec<usize> {
+    assert_eq!(items.len(), out.len(), "a split writes every item");
+    let counts: Vec<Vec<usize>> = items
+        .par_chunks(SPLIT_PIECE)
+        .map(|piece| {
+            let mut count = vec![0; buckets];
+            piece.iter().for_each(|s| count[key(s)] += 1);
+            count
+        })
+        .collect();
+    let mut start = vec![0; buckets + 1];
+    for b in 0..buckets {
+        start[b + 1] = start[b] + counts.iter().map(|c| c[b]).sum::<usize>();
+    }
+    // Each piece's parts of `out`: its share of each group's range, pieces in order.
+    let mut groups: Vec<&mut [T]> = Vec::with_capacity(buckets);
+    let mut rest = out;
+    for b in 0..buckets {
+        let (group, tail) = rest.split_at_mut(start[b + 1] - start[b]);
+        groups.push(group);
+        rest = tail;
+    }
+    let mut parts: Vec<Vec<&mut [T]>> = Vec::with_capacity(counts.len());
+    for count in &counts {
+        let mut piece = Vec::with_capacity(buckets);
+        for (group, &n) in groups.iter_mut().zip(count) {
+            let (part, tail) = std::mem::take(group).split_at_mut(n);
+            *group = tail;
+            piece.push(part);
+        }
+        parts.push(piece);
+    }
+    items.par_chunks(SPLIT_PIECE).zip(parts).for_each(|(piece, mut parts)| {
+        let mut at = vec![0; buckets];
+        for s in piece {
+            let b = key(s);
+            parts[b][at[b]] = map(s);
+            at[b] += 1;
+        }
+    });
+    start
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,6 +251,30 @@ mod tests {
             let c = &mut cursor[k as usize];
             order[*c as usize] = i as u32;
             *c += 1;
+        }
+    }
+
+    /// A split groups the items by key, each group in the items' order, on any thread count.
+    #[test]
+    fn a_split_is_the_stable_partition_on_any_thread_count() {
+        let mut s = Sampler::new(13, Purpose::Other, 0, 0);
+        for (n, buckets) in [(0, 3), (10, 1), (5000, 4), (70_001, 4), (100_000, 17)] {
+            // Skewed keys: the low buckets crowd.
+            let keys: Vec<u32> =
+                (0..n).map(|_| (s.next_f32().powi(3) * buckets as f32) as u32).collect();
+            let (mut start, mut order) = (vec![0; buckets + 1], vec![0; n]);
+            serial(&keys, &mut start, &mut order);
+            for threads in [1, 4] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let mut out = vec![u32::MAX; n];
+                let index: Vec<u32> = (0..n as u32).collect();
+                let got = pool.install(|| {
+                    split(&index, &mut out, buckets, |&i| keys[i as usize] as usize, |&i| i)
+                });
+                let want: Vec<usize> = start.iter().map(|&s| s as usize).collect();
+                assert_eq!(got, want, "{n} items, {buckets} buckets, {threads} threads");
+                assert!(out == order, "{n} items, {buckets} buckets, {threads} threads");
+            }
         }
     }
 
