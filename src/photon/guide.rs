@@ -39,7 +39,7 @@
 //! sampled with a fixed, everywhere positive density: its expected estimate is exactly the
 //! unguided one, and the schedule's convergence argument holds unchanged (docs/theory.md).
 
-use crate::photon::sort::split;
+use crate::photon::sort::{CountingSort, split};
 use crate::scene::light::{Light, LightSampler};
 use glam::Vec2;
 use rayon::prelude::*;
@@ -61,8 +61,8 @@ const MAX_DEPTH: u32 = 10;
 /// A node of at least this many pilot points grows its quadrants' subtrees in parallel.
 const PARALLEL_POINTS: usize = 1 << 14;
 
-/// Lights among which a fit splits its pilot paths in parallel ([`split`]); among more, on one
-/// thread.
+/// Lights among which a fit splits its pilot paths ([`split`]); among more, it sorts them by light
+/// ([`CountingSort`]).
 const SPLIT_LIGHTS: usize = 64;
 
 /// A node of at least this many pilot points is split into its quadrants in parallel (whatever
@@ -464,23 +464,19 @@ impl EmissionGuide {
     /// The tables and light choice fitted to `paths`; `None` if none of them was visible.
     fn fit(sampler: &LightSampler, paths: &[PilotPath]) -> Option<Self> {
         let n = sampler.len();
-        // Each light's points, in path order, one light after another: split in parallel among
-        // a few lights, in two passes on this thread among many (a piece of a split holds a part
-        // per light).
+        // Each light's points, in path order, one light after another: split among a few lights
+        // (a piece of a split holds a part per light), sorted by light among many.
         let point = |p: &PilotPath| (p.u, p.value);
-        let mut points = crate::buffers::filled(paths.len(), (Vec2::ZERO, 0.0));
-        let start = if n <= SPLIT_LIGHTS {
-            split(paths, &mut points, n, |p| p.light as usize, point)
+        let (mut points, start) = if n <= SPLIT_LIGHTS {
+            let mut points = crate::buffers::filled(paths.len(), (Vec2::ZERO, 0.0));
+            let start = split(paths, &mut points, n, |p| p.light as usize, point);
+            (points, start)
         } else {
-            let mut start = vec![0; n + 1];
-            paths.iter().for_each(|p| start[p.light as usize + 1] += 1);
-            (0..n).for_each(|l| start[l + 1] += start[l]);
-            let mut at = start.clone();
-            for p in paths {
-                points[at[p.light as usize]] = point(p);
-                at[p.light as usize] += 1;
-            }
-            start
+            let keys: Vec<u32> = paths.par_iter().map(|p| p.light).collect();
+            let (mut start, mut order) = (Vec::new(), Vec::new());
+            CountingSort::default().sort(&keys, n, &mut start, &mut order);
+            let points = order.par_iter().map(|&i| point(&paths[i as usize])).collect();
+            (points, start.iter().map(|&s| s as usize).collect())
         };
         let mut per_light = Vec::with_capacity(n);
         let mut rest = &mut points[..];
@@ -687,6 +683,44 @@ mod tests {
         assert_eq!(integral, 0.0);
         let (v, pdf) = tree.warp(Vec2::new(0.3, 0.8));
         assert!((v - Vec2::new(0.3, 0.8)).length() < 1e-6 && (pdf - 1.0).abs() < 1e-6);
+    }
+
+    /// A fit gathers each light's pilot points in path order, by a split among a few lights and
+    /// by a sort among many: each light's table is the quadtree fitted to its own points, bit
+    /// for bit.
+    #[test]
+    fn each_light_is_fitted_to_its_own_points() {
+        use glam::Vec3;
+        let mut s = Sampler::new(6, Purpose::Other, 0, 0);
+        for lights in [3, SPLIT_LIGHTS + 6] {
+            let point = |k: usize| Light::Point {
+                position: Vec3::new(k as f32, 0.0, 0.0),
+                intensity: Vec3::splat(1.0 + k as f32),
+            };
+            let sampler = LightSampler::new(&(0..lights).map(point).collect::<Vec<_>>(), 0);
+            let paths: Vec<PilotPath> = (0..60_000)
+                .map(|_| {
+                    let light =
+                        ((s.next_f32().powi(2) * lights as f32) as u32).min(lights as u32 - 1);
+                    let u = s.next_2d();
+                    let seen = u.x < 0.3 && u.y > 0.5 || s.next_f32() < 0.02;
+                    PilotPath { light, u, value: seen as u8 as f32 }
+                })
+                .collect();
+            let guide = EmissionGuide::fit(&sampler, &paths).unwrap();
+            let bits = |t: &QuadTree| -> Vec<([u32; 4], [u32; 4])> {
+                t.nodes.iter().map(|n| (n.mass.map(f32::to_bits), n.child)).collect()
+            };
+            for l in 0..lights {
+                let mut mine: Vec<(Vec2, f32)> = paths
+                    .iter()
+                    .filter(|p| p.light as usize == l)
+                    .map(|p| (p.u, p.value))
+                    .collect();
+                let (want, _) = QuadTree::fit(&mut mine, 0.0);
+                assert_eq!(bits(&guide.tables[l]), bits(&want), "{lights} lights: light {l}");
+            }
+        }
     }
 
     /// The emission mixture of two lights fitted to a pilot in which only one corner of light 1's
