@@ -175,6 +175,8 @@ impl PhotonMapper {
         // Room for every round (pages are touched only as the rounds fill them), so that a second
         // round does not copy the first's paths on one thread.
         let mut paths: Vec<PilotPath> = Vec::with_capacity((PILOT_ROUNDS * per_round) as usize);
+        // Paths and visible paths per light over the rounds so far, each round's counted once.
+        let mut usage = vec![LightUse::default(); self.lights.len()];
         for round in 0..PILOT_ROUNDS {
             let pass = PhotonPass {
                 first_path: round * per_round,
@@ -184,8 +186,10 @@ impl PhotonMapper {
                 return false;
             }
             let Some(marks) = self.gather_marks(scene, 0, stop) else { return false };
+            let counted = paths.len();
             self.pilot_paths(&marks, pass.first_path, &mut paths);
-            let usage = light_use(self.lights.len(), &paths);
+            let more = light_use(self.lights.len(), &paths[counted..]);
+            usage.iter_mut().zip(&more).for_each(|(u, m)| u.add(m));
             let wanting = |u: &LightUse| u.visible < PILOT_VISIBLE && 2 * u.visible < u.paths;
             if !usage.iter().any(wanting) {
                 break;

@@ -341,6 +341,13 @@ pub(crate) struct LightUse {
     pub cells: usize,
 }
 
+impl LightUse {
+    /// Counts `other`'s paths and visible paths too (of more pilot paths of the same light).
+    pub(crate) fn add(&mut self, other: &LightUse) {
+        (self.paths, self.visible) = (self.paths + other.paths, self.visible + other.visible);
+    }
+}
+
 /// A path whose contribution is below this fraction of the visible paths' mean is not visible:
 /// it was gathered, but only with a weight no estimate notices (a photon near the far end of a
 /// long, dense eye segment, e^(−50) down).
@@ -377,9 +384,7 @@ pub(crate) fn light_use(lights: usize, paths: &[PilotPath]) -> Vec<LightUse> {
         usage
     };
     let add = |mut a: Vec<LightUse>, b: Vec<LightUse>| {
-        for (a, b) in a.iter_mut().zip(b) {
-            (a.paths, a.visible) = (a.paths + b.paths, a.visible + b.visible);
-        }
+        a.iter_mut().zip(&b).for_each(|(a, b)| a.add(b));
         a
     };
     let piece = crate::buffers::piece(paths.len(), 4, 1 << 14);
