@@ -304,3 +304,37 @@ fn mutate_every_byte(path: &Path) {
     }
     assert!(refused > 0 && ok + refused > 2 * good.len(), "{ok} loaded, {refused} refused");
 }
+
+/// Scaling a grid whose storage is shared (as the scene's list of loaded grids shares it) makes
+/// a scaled copy and leaves the other holder's values alone; the copy is, byte for byte, what
+/// scaling a grid of its own in place gives — in both layouts, dense and bricks (tiles among
+/// them), on one thread and on three.
+#[test]
+fn a_shared_grid_is_scaled_into_a_copy_of_its_own() {
+    let bytes = |g: &DensityGrid| {
+        let mut out = Vec::new();
+        g.feed_values(&mut |b: &[u8]| out.extend_from_slice(b));
+        out
+    };
+    for (file, layout) in
+        [("cloud.vdb", Layout::Dense), ("cloud.vdb", Layout::Bricks), ("tiles.vdb", Layout::Bricks)]
+    {
+        let k = 3.7f32;
+        let original = DensityGrid::load_with(&media(file), "density", layout).unwrap();
+        let before = bytes(&original);
+        let mut own = original.clone();
+        // `own` shares `original`'s storage until it is scaled.
+        assert!(std::sync::Arc::ptr_eq(&own.storage, &original.storage));
+        let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+        pool(3).install(|| own.scale_values(k));
+        assert!(!std::sync::Arc::ptr_eq(&own.storage, &original.storage), "{file}: not copied");
+        assert_eq!(bytes(&original), before, "{file}: the shared values changed");
+        let mut alone = DensityGrid::load_with(&media(file), "density", layout).unwrap();
+        pool(1).install(|| alone.scale_values(k));
+        assert_eq!(bytes(&own), bytes(&alone), "{file} ({layout:?})");
+        assert_eq!(own.max_density, original.max_density * k);
+        let i = IVec3::from(original.active_box.0);
+        assert_eq!(own.voxel(i), original.voxel(i) * k);
+        assert_ne!(bytes(&own), before, "{file}: scaling changed nothing");
+    }
+}
