@@ -356,6 +356,11 @@ impl Image {
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        // The preview is encoded on one thread while the OpenEXR file is written: the png
+        // crate's fast mode (fdeflate) encoded cornell-fog's 384×384 preview in
+        // 1.1 ms against 36 ms (its default), 7 % larger (cumulus, noisier: 1.0 against 15 ms,
+        // 34 % larger). The pixels are the same.
+        enc.set_compression(png::Compression::Fast);
         enc.add_text_chunk("Software".into(), "haze".into()).map_err(|e| e.to_string())?;
         let mut writer = enc.write_header().map_err(|e| e.to_string())?;
         writer.write_image_data(&data).map_err(|e| e.to_string())?;
@@ -467,5 +472,58 @@ mod error_tests {
                 assert_eq!((a.relative_rmse, a.upper), (b.relative_rmse, b.upper));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod preview_tests {
+    use super::*;
+    use crate::film::Film;
+    use crate::settings::RenderSettings;
+
+    /// The PNG preview holds exactly the sRGB bytes of the scaled and clamped pixels (fast
+    /// compression is lossless), and the mark `is_haze_preview` looks for; smooth and noisy
+    /// pixels, and pixels beyond 1 and below 0.
+    #[test]
+    fn the_preview_holds_the_pixels_it_was_given() {
+        let (w, h) = (64u32, 48u32);
+        let mut film = Film::new(w, h);
+        let pixel = |i: usize| {
+            let noise = (i as u32).wrapping_mul(2_654_435_761) % 1000;
+            let ramp = (i % w as usize) as f32 / w as f32;
+            glam::Vec3::new(ramp, noise as f32 / 500.0, 0.3 - ramp)
+        };
+        film.add(&(0..(w * h) as usize).map(pixel).collect::<Vec<_>>());
+        let info = RenderInfo {
+            settings: RenderSettings::default(),
+            first_iteration: 1,
+            iterations: 1,
+            light_paths: 0,
+            initial_radius: 0.0,
+            radius: 0.0,
+            volume_initial_radius: 0.0,
+            volume_radius: 0.0,
+            elapsed: 0.0,
+            scene: None,
+            nonfinite_samples: 0,
+            truncated_trackings: 0,
+        };
+        let image = Image::from_film(&film, info);
+        let exposure = 1.5;
+        let dir = std::env::temp_dir().join(format!("haze-preview-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("p.png");
+        image.write_png(&path, exposure).unwrap();
+        assert!(is_haze_preview(&path));
+        let file = std::io::BufReader::new(std::fs::File::open(&path).unwrap());
+        let mut reader = png::Decoder::new(file).read_info().unwrap();
+        let mut got = vec![0; reader.output_buffer_size().unwrap()];
+        let frame = reader.next_frame(&mut got).unwrap();
+        assert_eq!((frame.width, frame.height, frame.color_type), (w, h, png::ColorType::Rgb));
+        let want: Vec<u8> =
+            image.pixels.iter().flat_map(|p| p.map(|c| srgb8(c * exposure))).collect();
+        assert!(want.iter().any(|&b| b == 255) && want.iter().any(|&b| b == 0));
+        assert!(got[..frame.buffer_size()] == want[..], "the preview's pixels differ");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
