@@ -35,6 +35,10 @@ fn exr_round_trips_pixels_and_metadata() {
     )
     .unwrap();
     assert!(read.layer_data.channel_data.pixels == image.pixels);
+    // Run-length encoded scan lines (`output.rs`, `ENCODING`: as small as zlib's within 3 % on
+    // a render's noise, at a tenth of the time).
+    let encoding = &read.layer_data.encoding;
+    assert_eq!((encoding.compression, &encoding.blocks), (Compression::RLE, &Blocks::ScanLines));
     let attrs = &read.layer_data.attributes.other;
     let text = |k: &str| match attrs.get(&Text::from(k)) {
         Some(AttributeValue::Text(t)) => t.to_string(),
