@@ -580,7 +580,7 @@ mod file_tests {
         assert_eq!((frame.width, frame.height, frame.color_type), (w, h, png::ColorType::Rgb));
         let want: Vec<u8> =
             image.pixels.iter().flat_map(|p| p.map(|c| srgb8(c * exposure))).collect();
-        assert!(want.iter().any(|&b| b == 255) && want.iter().any(|&b| b == 0));
+        assert!(want.contains(&255) && want.contains(&0));
         assert!(got[..frame.buffer_size()] == want[..], "the preview's pixels differ");
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -333,7 +333,7 @@ fn a_shared_grid_is_scaled_into_a_copy_of_its_own() {
         pool(1).install(|| alone.scale_values(k));
         assert_eq!(bytes(&own), bytes(&alone), "{file} ({layout:?})");
         assert_eq!(own.max_density, original.max_density * k);
-        let i = IVec3::from(original.active_box.0);
+        let i = original.active_box.0;
         assert_eq!(own.voxel(i), original.voxel(i) * k);
         assert_ne!(bytes(&own), before, "{file}: scaling changed nothing");
     }
