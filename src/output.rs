@@ -539,6 +539,24 @@ mod file_tests {
     use crate::film::Film;
     use crate::settings::RenderSettings;
 
+    /// How a render of `iterations` iterations with the default settings was made.
+    fn info(iterations: u64) -> RenderInfo {
+        RenderInfo {
+            settings: RenderSettings::default(),
+            first_iteration: 1,
+            iterations,
+            light_paths: 1000,
+            initial_radius: 0.1,
+            radius: 0.05,
+            volume_initial_radius: 0.2,
+            volume_radius: 0.1,
+            elapsed: 1.5,
+            scene: None,
+            nonfinite_samples: 0,
+            truncated_trackings: 0,
+        }
+    }
+
     /// The PNG preview holds exactly the sRGB bytes of the scaled and clamped pixels (fast
     /// compression is lossless), and the mark `is_haze_preview` looks for; smooth and noisy
     /// pixels, and pixels beyond 1 and below 0.
@@ -552,24 +570,9 @@ mod file_tests {
             glam::Vec3::new(ramp, noise as f32 / 500.0, 0.3 - ramp)
         };
         film.add(&(0..(w * h) as usize).map(pixel).collect::<Vec<_>>());
-        let info = RenderInfo {
-            settings: RenderSettings::default(),
-            first_iteration: 1,
-            iterations: 1,
-            light_paths: 0,
-            initial_radius: 0.0,
-            radius: 0.0,
-            volume_initial_radius: 0.0,
-            volume_radius: 0.0,
-            elapsed: 0.0,
-            scene: None,
-            nonfinite_samples: 0,
-            truncated_trackings: 0,
-        };
-        let image = Image::from_film(&film, info);
+        let image = Image::from_film(&film, info(1));
         let exposure = 1.5;
-        let dir = std::env::temp_dir().join(format!("haze-preview-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::temp_dir("preview");
         let path = dir.join("p.png");
         image.write_png(&path, exposure).unwrap();
         assert!(is_haze_preview(&path));
@@ -582,7 +585,6 @@ mod file_tests {
             image.pixels.iter().flat_map(|p| p.map(|c| srgb8(c * exposure))).collect();
         assert!(want.contains(&255) && want.contains(&0));
         assert!(got[..frame.buffer_size()] == want[..], "the preview's pixels differ");
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// The OpenEXR file's bytes, blocks compressed in parallel, are the exr crate's own writer's
@@ -602,21 +604,7 @@ mod file_tests {
             let bias: Vec<_> = image.iter().map(|v| *v * 0.01).collect();
             film.add_with_bias(&image, &bias);
         }
-        let info = RenderInfo {
-            settings: RenderSettings::default(),
-            first_iteration: 1,
-            iterations: 3,
-            light_paths: 1000,
-            initial_radius: 0.1,
-            radius: 0.05,
-            volume_initial_radius: 0.2,
-            volume_radius: 0.1,
-            elapsed: 1.5,
-            scene: None,
-            nonfinite_samples: 0,
-            truncated_trackings: 0,
-        };
-        let image = Image::from_film(&film, info);
+        let image = Image::from_film(&film, info(3));
         let exr = image.exr_image(true);
         assert_eq!(exr.layer_data.len(), 4);
         let mut theirs = std::io::Cursor::new(Vec::new());
