@@ -244,8 +244,8 @@ pub(crate) fn run(path: &Path, overrides: &Overrides, rounds: usize) -> Result<(
          fraction its idle processors stand for, \"more work\" the one its processor time grown \
          over the 1-thread run's wall-clock time stands for (contention, work repeated per \
          thread; below zero where the 1-thread run left its processor idle, reading or writing \
-         files). The clock counts every thread of the process (the OpenEXR writer's own pool \
-         too), so \"busy\" can pass 100 % in a phase that writes."
+         files). The clock counts every thread of the process (the one that frees a render's \
+         buffers too), so \"busy\" can pass 100 % in a phase that writes."
     );
     if stolen > 0.0 {
         println!(
