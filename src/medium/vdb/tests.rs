@@ -21,15 +21,24 @@ fn grid_medium(file: &str, scale: f32, sigma_a: Vec3, sigma_s: Vec3) -> Medium {
     Medium::Vdb(Box::new(VdbMedium::new(grid, Affine3A::IDENTITY, scale, sigma_a, sigma_s, phase)))
 }
 
+/// Grid `name` of media/albedo.vdb (`density`, and channels linear along x, y and z).
+fn albedo_grid(name: &str) -> DensityGrid {
+    DensityGrid::load(&media("albedo.vdb"), name).unwrap()
+}
+
+/// media/albedo.vdb's three channels `albedo.r`, `.g`, `.b` as a colour field scaled by `scale`.
+fn albedo_field(scale: f32) -> ColourField {
+    let names = ["albedo.r", "albedo.g", "albedo.b"].map(String::from);
+    ColourField::new(names.clone().map(|n| albedo_grid(&n)), names, Affine3A::IDENTITY, scale)
+}
+
 /// An albedo grid sets σ_s(p) = albedo(p) σ_t(p) and σ_a(p) = σ_t(p) − σ_s(p) per channel
 /// (coloured extinction included), replacing the constant split, and the medium emits σ_a(p)
 /// L_e: media/albedo.vdb's channels are linear along x, y and z.
 #[test]
 fn albedo_grids_set_the_scattering_share_point_by_point() {
-    let file = media("albedo.vdb");
-    let load = |n: &str| DensityGrid::load(&file, n).unwrap();
-    let names = ["albedo.r", "albedo.g", "albedo.b"].map(String::from);
-    let field = ColourField::new(names.clone().map(|n| load(&n)), names, Affine3A::IDENTITY, 1.0);
+    let load = albedo_grid;
+    let field = albedo_field(1.0);
     let (sigma_a, sigma_s) = (Vec3::new(0.5, 0.2, 1.0), Vec3::new(0.5, 0.3, 1.0));
     let sigma_t = sigma_a + sigma_s;
     let m = VdbMedium::new(
@@ -187,10 +196,8 @@ fn coloured_extinction_is_unbiased_in_every_channel() {
 /// [`assert_unbiased_in_every_channel`], with the majorants as built and bisected.
 #[test]
 fn extinction_grids_colour_the_extinction_point_by_point() {
-    let file = media("albedo.vdb");
-    let load = |n: &str| DensityGrid::load(&file, n).unwrap();
-    let names = ["albedo.r", "albedo.g", "albedo.b"].map(String::from);
-    let field = ColourField::new(names.clone().map(|n| load(&n)), names, Affine3A::IDENTITY, 2.5);
+    let load = albedo_grid;
+    let field = albedo_field(2.5);
     let sigma_t = Vec3::new(0.5, 1.0, 2.0);
     let sigma_a = Vec3::new(0.1, 0.5, 1.5);
     let le = Rgb::new(1.0, 2.0, 3.0);
