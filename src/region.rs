@@ -46,19 +46,23 @@ impl Region {
 
     /// The indices of this region's pixels ([`Self::indices`]) but the [`NOISIEST_SHARE`] of them
     /// with the largest `variance(pixel)` (none below 1 / [`NOISIEST_SHARE`] pixels; ties by
-    /// index): the pixels that the image's noise figures and its target error count.
+    /// index): the pixels that the image's noise figures and its target error count. Each
+    /// pixel's variance is worked out once, in parallel (in the selection's comparisons, a whole
+    /// image's took 5–7 ms on one thread at 640×400).
     pub fn counted(
         self,
         width: u32,
         height: u32,
-        variance: impl Fn(usize) -> f64,
+        variance: impl Fn(usize) -> f64 + Sync,
     ) -> impl Iterator<Item = usize> {
+        use rayon::prelude::*;
         let mut all: Vec<usize> = self.indices(width, height).collect();
         let left_out = (all.len() as f64 * NOISIEST_SHARE) as usize;
         let mut out = vec![false; all.len()];
         if left_out > 0 {
             let mut order: Vec<usize> = (0..all.len()).collect();
-            let key = |k: usize| variance(all[k]);
+            let keys: Vec<f64> = all.par_iter().map(|&i| variance(i)).collect();
+            let key = |k: usize| keys[k];
             // Largest first; NaN (never written) counts as largest.
             order.select_nth_unstable_by(left_out - 1, |&a, &b| {
                 key(b).partial_cmp(&key(a)).unwrap_or(std::cmp::Ordering::Equal).then(a.cmp(&b))
